@@ -1,0 +1,1 @@
+//! The compensation pass. (Being written.)

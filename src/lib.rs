@@ -1,0 +1,14 @@
+//! nccomp: compensate five-axis NC programs for a machine's geometric errors.
+//!
+//! The modules are the pipeline, in order: the NC document ([`nc`], lossless parse and
+//! emit) → the machine and its error model ([`model`]) → kinematics and the solve
+//! ([`kinematics`]) → the compensation pass ([`compensate`]). The command-line interface
+//! is a thin layer over these in the binary.
+
+pub mod compensate;
+pub mod diag;
+pub mod kinematics;
+pub mod model;
+pub mod nc;
+
+pub use diag::{Diagnostic, Error, Result};

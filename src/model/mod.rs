@@ -1,0 +1,140 @@
+//! The machine and its error model, as the contract (design/model.md) defines them.
+//!
+//! Files are read by [`machine_file`] and [`error_file`]; ISO 230 error names are mapped
+//! onto this model in exactly one place, [`terms`]. Everything here is in the units the
+//! kinematics use: millimetres and degrees for axis positions, millimetres and radians for
+//! errors.
+
+pub mod error_file;
+pub mod machine_file;
+pub mod table;
+pub mod terms;
+
+use nalgebra::Vector3;
+use std::collections::BTreeMap;
+
+pub use table::MotionTable;
+
+/// Whether an axis slides or turns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AxisKind {
+    Linear,
+    Rotary,
+}
+
+/// One axis of the machine, nominal geometry at the home state (all axis words 0), in B.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Axis {
+    /// The axis's key in the machine file (`[axes.X]` → "X").
+    pub name: String,
+    /// The program word that drives it, uppercase ('X', 'A', ...).
+    pub word: char,
+    pub kind: AxisKind,
+    /// Nominal unit direction: of motion (linear) or of the rotation axis (rotary), with
+    /// the sense of the body the axis moves.
+    pub direction: Vector3<f64>,
+    /// Rotary: a point on the axis line. Linear: the error reference point r.
+    pub point: Vector3<f64>,
+    /// Travel limits in program coordinates (mm or degrees); `None`: unlimited/continuous.
+    pub travel: Option<[f64; 2]>,
+    /// Added to the program position before error-table look-up.
+    pub table_offset: f64,
+}
+
+/// A named chain of axes from the bed outward (indices into [`Machine::axes`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Chain {
+    pub name: String,
+    pub axes: Vec<usize>,
+}
+
+/// Output resolution: the smallest step written for linear (mm) and rotary (degree) words.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Resolution {
+    pub linear: f64,
+    pub rotary: f64,
+}
+
+impl Default for Resolution {
+    fn default() -> Self {
+        Resolution {
+            linear: 0.0001,
+            rotary: 0.0001,
+        }
+    }
+}
+
+/// Tool lengths: the reference length the machine file's geometry was measured with,
+/// and the lengths of the tools a G43 H word can pick.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Tool {
+    pub length: f64,
+    pub lengths: BTreeMap<u32, f64>,
+}
+
+/// A machine: its axes, the workpiece chain and one or more tool chains.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Machine {
+    pub name: Option<String>,
+    pub axes: Vec<Axis>,
+    pub workpiece_chain: Vec<usize>,
+    /// At least one. A machine file's `tool_chain = [...]` is one chain named "tool".
+    pub tool_chains: Vec<Chain>,
+    pub resolution: Resolution,
+    pub tool: Tool,
+}
+
+impl Machine {
+    pub fn axis_index(&self, name: &str) -> Option<usize> {
+        self.axes.iter().position(|a| a.name == name)
+    }
+
+    pub fn tool_chain(&self, name: &str) -> Option<usize> {
+        self.tool_chains.iter().position(|c| c.name == name)
+    }
+}
+
+/// The errors of one axis, in mm and rad. All zero for a perfect axis.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct AxisErrors {
+    /// Linear axes: the squareness rotation vector s, d̃ = Rv(s)·d.
+    pub squareness: Vector3<f64>,
+    /// Rotary axes: shift of the axis line, c̃ = c + shift.
+    pub location_shift: Vector3<f64>,
+    /// Rotary axes: tilt of the axis line, ã = Rv(tilt)·a.
+    pub location_tilt: Vector3<f64>,
+    /// Rotary axes: zero-position error e0.
+    pub zero: f64,
+    /// Error motions against position, if any were given.
+    pub motion: Option<MotionTable>,
+}
+
+impl AxisErrors {
+    pub fn is_zero(&self) -> bool {
+        self.squareness == Vector3::zeros()
+            && self.location_shift == Vector3::zeros()
+            && self.location_tilt == Vector3::zeros()
+            && self.zero == 0.0
+            && self.motion.as_ref().is_none_or(|m| m.is_zero())
+    }
+}
+
+/// The error model of a machine: one [`AxisErrors`] per axis, parallel to
+/// [`Machine::axes`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ErrorModel {
+    pub axes: Vec<AxisErrors>,
+}
+
+impl ErrorModel {
+    /// The model of a perfect machine.
+    pub fn zero(machine: &Machine) -> Self {
+        ErrorModel {
+            axes: vec![AxisErrors::default(); machine.axes.len()],
+        }
+    }
+
+    pub fn is_zero(&self) -> bool {
+        self.axes.iter().all(AxisErrors::is_zero)
+    }
+}

@@ -1,0 +1,86 @@
+//! The NC program as a lossless document.
+//!
+//! A program is split into lines (blocks); each line into tokens that cover every byte of
+//! it. Emitting the tokens' source bytes gives the input back byte for byte, so a pass can
+//! replace a single number and leave everything else exactly as it was (the toml_edit
+//! idea: a value keeps its own text).
+
+pub mod number;
+mod parse;
+
+pub use parse::{lines, parse_line};
+
+use std::ops::Range;
+
+/// One line of a program: its content (without the line ending) and the ending itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Line<'a> {
+    /// 1-based line number in the file.
+    pub number: usize,
+    /// Byte offset of the line's first byte in the file.
+    pub offset: usize,
+    /// The line without its ending (a `\r` before `\n` belongs to the ending).
+    pub content: &'a [u8],
+    /// `b"\n"`, `b"\r\n"` or `b""` (last line without a newline).
+    pub ending: &'a [u8],
+}
+
+/// What a run of bytes in a line is.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TokenKind {
+    /// Spaces and tabs (and stray `\r`).
+    Space,
+    /// `( ... )` (to the end of the line if unclosed) or `;` to the end of the line.
+    Comment,
+    /// `/` at the start of a block (after optional spaces).
+    BlockDelete,
+    /// A line holding `%` (program start/end marker); the token covers the `%`.
+    Percent,
+    /// A letter and its value.
+    Word(Word),
+    /// Anything else (`#1=5`, `=`, keywords of O-word lines, stray bytes...).
+    Other,
+}
+
+/// A token: its kind and the bytes it covers, relative to the start of the line content.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Token {
+    pub kind: TokenKind,
+    pub span: Range<usize>,
+}
+
+/// A word such as `X-12.5`, `n10`, `G 1`, `X[#1+2]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Word {
+    /// The letter, uppercased.
+    pub letter: u8,
+    /// Whether the source letter was lowercase.
+    pub lowercase: bool,
+    pub value: Value,
+    /// The value's bytes (after the letter and any spaces), relative to the line start.
+    /// Empty at the end of the word for [`Value::Missing`].
+    pub value_span: Range<usize>,
+}
+
+/// A word's value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Value {
+    /// A literal number; `decimals` counts the digits after the decimal point
+    /// (`10.` has 0, `10.50` has 2).
+    Number { value: f64, decimals: u8 },
+    /// `[ ... ]`, an expression (rs274ngc).
+    Expression,
+    /// `#5`, `#<name>`, a parameter reference.
+    Parameter,
+    /// The letter stands alone (`X` followed by something that is not a value).
+    Missing,
+}
+
+impl Word {
+    pub fn number(&self) -> Option<f64> {
+        match self.value {
+            Value::Number { value, .. } => Some(value),
+            _ => None,
+        }
+    }
+}

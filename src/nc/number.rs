@@ -1,0 +1,1 @@
+//! Numbers as programs write them.
