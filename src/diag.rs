@@ -77,6 +77,12 @@ pub enum Error {
     /// Bad input at a known place in a file.
     #[error("{0}")]
     Input(Box<Diagnostic>),
+    /// Several problems in one input (each located).
+    #[error("{}", .0.iter().map(|d| d.to_string()).collect::<Vec<_>>().join("\n"))]
+    Inputs(Vec<Diagnostic>),
+    /// A request that cannot be carried out (a tool chain that does not exist, ...).
+    #[error("{0}")]
+    Usage(String),
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     Io {
@@ -102,6 +108,11 @@ impl Error {
     pub fn render(&self) -> String {
         match self {
             Error::Input(d) => d.render(),
+            Error::Inputs(ds) => ds
+                .iter()
+                .map(Diagnostic::render)
+                .collect::<Vec<_>>()
+                .join("\n"),
             other => other.to_string(),
         }
     }

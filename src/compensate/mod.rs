@@ -1,1 +1,663 @@
-//! The compensation pass. (Being written.)
+//! The compensation pass: stream over the blocks of a program, follow its modal state,
+//! solve every pose through the error model and rewrite the axis words that change.
+//!
+//! Bytes that need no change are copied as they were: a word keeps its text unless its
+//! compensated value rounds differently (design/model.md, "Numbers in programs"); a block
+//! that omits an axis whose value must change gets that word added.
+
+mod gcodes;
+mod summary;
+
+pub use summary::{Extreme, Summary};
+
+use crate::diag::{Diagnostic, Error};
+use crate::kinematics::{Kinematics, MAX_AXES, Model, SolveOptions};
+use crate::model::{AxisKind, ErrorModel, Machine};
+use crate::nc::number::{decimals_for, write_fixed};
+use crate::nc::{self, Token, TokenKind, Value};
+use gcodes::GCode;
+
+/// Millimetres per inch.
+const INCH: f64 = 25.4;
+
+/// How the pass runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Options {
+    /// Name of the active tool chain; `None`: the machine's first.
+    pub tool_chain: Option<String>,
+    pub solve: SolveOptions,
+    /// Report travel-limit violations after compensation instead of failing.
+    pub allow_limit_violations: bool,
+    /// Largest correction accepted for a linear axis (mm) and a rotary axis (degrees); a
+    /// larger one means the model or the pose is wrong, and the block is refused.
+    pub max_correction: (f64, f64),
+    /// Stop after this many refused blocks.
+    pub max_errors: usize,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            tool_chain: None,
+            solve: SolveOptions::default(),
+            allow_limit_violations: false,
+            max_correction: (1.0, 1.0),
+            max_errors: 20,
+        }
+    }
+}
+
+/// A compensator for one machine, error model and tool chain.
+#[derive(Debug, Clone)]
+pub struct Compensator<'m> {
+    machine: &'m Machine,
+    kin: Kinematics,
+    zero_model: bool,
+    options: Options,
+    /// Variable driven by each letter A..Z.
+    var_of_letter: [Option<usize>; 26],
+    decimals: (u8, u8),
+}
+
+/// The program's modal state as the pass follows it.
+#[derive(Debug, Clone)]
+struct State {
+    inch: bool,
+    motion: Option<GCode>,
+    /// Programmed (nominal) axis values, mm and degrees.
+    nominal: [f64; MAX_AXES],
+    /// What the machine was last told, mm and degrees.
+    emitted: [f64; MAX_AXES],
+    /// Bit k: variable k has been programmed.
+    programmed: u32,
+    /// Decimals of the last word written for each variable.
+    decimals: [u8; MAX_AXES],
+    length: f64,
+    tool: Option<u32>,
+    work_offset: Option<i64>,
+}
+
+/// A change to one line: replace a byte range, or insert at a position (empty range).
+#[derive(Debug, Clone)]
+struct Edit {
+    at: std::ops::Range<usize>,
+    text: String,
+}
+
+impl<'m> Compensator<'m> {
+    pub fn new(machine: &'m Machine, errors: &ErrorModel, options: Options) -> crate::Result<Self> {
+        let chain = match &options.tool_chain {
+            None => 0,
+            Some(name) => machine.tool_chain(name).ok_or_else(|| {
+                Error::Usage(format!(
+                    "machine has no tool chain named `{name}`; it has {}",
+                    machine
+                        .tool_chains
+                        .iter()
+                        .map(|c| format!("`{}`", c.name))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ))
+            })?,
+        };
+        let kin =
+            Kinematics::new(machine, errors, chain).map_err(|e| Error::Usage(e.to_string()))?;
+        let mut var_of_letter = [None; 26];
+        for (var, &axis) in kin.axes().iter().enumerate() {
+            let letter = machine.axes[axis].word.to_ascii_uppercase();
+            if letter.is_ascii_uppercase() {
+                var_of_letter[(letter as u8 - b'A') as usize] = Some(var);
+            }
+        }
+        Ok(Compensator {
+            machine,
+            kin,
+            zero_model: errors.is_zero(),
+            options,
+            var_of_letter,
+            decimals: (
+                decimals_for(machine.resolution.linear),
+                decimals_for(machine.resolution.rotary),
+            ),
+        })
+    }
+
+    pub fn kinematics(&self) -> &Kinematics {
+        &self.kin
+    }
+
+    fn axis_name(&self, var: usize) -> &str {
+        &self.machine.axes[self.kin.axes()[var]].name
+    }
+
+    fn letter(&self, var: usize) -> u8 {
+        self.machine.axes[self.kin.axes()[var]]
+            .word
+            .to_ascii_uppercase() as u8
+    }
+
+    fn is_linear(&self, var: usize) -> bool {
+        self.kin.kind(var) == AxisKind::Linear
+    }
+
+    /// Compensate the program `src` (named `path` in messages), appending the result to
+    /// `out`.
+    pub fn run(&self, src: &[u8], path: &str, out: &mut Vec<u8>) -> crate::Result<Summary> {
+        let mut summary = Summary {
+            zero_model: self.zero_model,
+            ..Summary::default()
+        };
+        if self.zero_model {
+            // Nothing can change: the program passes byte for byte, whatever it holds.
+            out.extend_from_slice(src);
+            summary.lines = nc::lines(src).count();
+            return Ok(summary);
+        }
+        let n = self.kin.len();
+        let mut state = State {
+            inch: false,
+            motion: None,
+            nominal: [0.0; MAX_AXES],
+            emitted: [0.0; MAX_AXES],
+            programmed: 0,
+            decimals: [0; MAX_AXES],
+            length: self.machine.tool.length,
+            tool: None,
+            work_offset: None,
+        };
+        for v in 0..n {
+            state.decimals[v] = self.res_decimals(v, false);
+        }
+        let mut tokens: Vec<Token> = Vec::new();
+        let mut edits: Vec<Edit> = Vec::new();
+        let mut errors: Vec<Diagnostic> = Vec::new();
+        for line in nc::lines(src) {
+            summary.lines += 1;
+            nc::parse_line(line.content, &mut tokens);
+            edits.clear();
+            let at = |offset: usize, message: String| {
+                Diagnostic::at(path, src, line.offset + offset, message)
+            };
+            if let Err(d) = self.block(&line, &tokens, &mut state, &mut edits, &mut summary, &at) {
+                errors.push(d);
+                if errors.len() >= self.options.max_errors {
+                    break;
+                }
+            }
+            if edits.is_empty() {
+                out.extend_from_slice(line.content);
+            } else {
+                edits.sort_by_key(|e| (e.at.start, e.at.end));
+                let mut pos = 0;
+                for e in &edits {
+                    out.extend_from_slice(&line.content[pos..e.at.start]);
+                    out.extend_from_slice(e.text.as_bytes());
+                    pos = e.at.end;
+                }
+                out.extend_from_slice(&line.content[pos..]);
+            }
+            out.extend_from_slice(line.ending);
+        }
+        if !errors.is_empty() {
+            return Err(Error::Inputs(errors));
+        }
+        Ok(summary)
+    }
+
+    fn res_decimals(&self, var: usize, inch: bool) -> u8 {
+        if self.is_linear(var) {
+            if inch {
+                decimals_for(self.machine.resolution.linear / INCH)
+            } else {
+                self.decimals.0
+            }
+        } else {
+            self.decimals.1
+        }
+    }
+
+    /// One block: follow its modal words, and if it moves, compensate it.
+    fn block(
+        &self,
+        line: &nc::Line<'_>,
+        tokens: &[Token],
+        state: &mut State,
+        edits: &mut Vec<Edit>,
+        summary: &mut Summary,
+        at: &dyn Fn(usize, String) -> Diagnostic,
+    ) -> Result<(), Diagnostic> {
+        let n = self.kin.len();
+        // Axis words of this block: (variable, token index).
+        let mut axis_words: [Option<usize>; MAX_AXES] = [None; MAX_AXES];
+        let mut has_words = false;
+        let mut dwell = false;
+        let mut motion_in_block = None;
+        let mut h_word: Option<(u32, usize)> = None;
+        let mut g43 = false;
+        let mut g49 = false;
+        let mut o_word = None;
+        let mut other_text = None;
+        for (i, t) in tokens.iter().enumerate() {
+            let w = match &t.kind {
+                TokenKind::Word(w) => w,
+                TokenKind::Other => {
+                    other_text.get_or_insert(t.span.start);
+                    continue;
+                }
+                _ => continue,
+            };
+            has_words = true;
+            let letter = w.letter as char;
+            let number = match w.value {
+                Value::Number { value, .. } => value,
+                Value::Expression => {
+                    return Err(at(
+                        t.span.start,
+                        format!(
+                            "{letter} is given by an expression; expressions cannot be compensated (expected a number)"
+                        ),
+                    ));
+                }
+                Value::Parameter => {
+                    return Err(at(
+                        t.span.start,
+                        format!(
+                            "{letter} is given by a parameter; parameters cannot be compensated (expected a number)"
+                        ),
+                    ));
+                }
+                Value::Missing => {
+                    if letter == 'O' {
+                        o_word = Some(t.span.start);
+                        continue;
+                    }
+                    return Err(at(
+                        t.span.start,
+                        format!("{letter} has no value (expected a number after it)"),
+                    ));
+                }
+            };
+            let code10 = (number * 10.0).round() as i64;
+            match letter {
+                'G' => match gcodes::classify(code10) {
+                    GCode::Unsupported(what) => {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "{} cannot be compensated: {what} {}",
+                                code_text(line.content, t),
+                                if what == "this G code" {
+                                    "is not known to nccomp"
+                                } else {
+                                    "are not supported"
+                                }
+                            ),
+                        ));
+                    }
+                    g @ (GCode::Motion | GCode::Arc) => motion_in_block = Some((g, t.span.start)),
+                    GCode::Dwell => dwell = true,
+                    GCode::Inch => state.inch = true,
+                    GCode::Millimetre => state.inch = false,
+                    GCode::ToolLength => g43 = true,
+                    GCode::ToolLengthOff => g49 = true,
+                    GCode::WorkOffset => {
+                        if let Some(prev) = state.work_offset {
+                            if prev != code10 {
+                                return Err(at(
+                                    t.span.start,
+                                    format!(
+                                        "{} switches the work offset; the machine file describes one program zero, so a program must keep to one work offset",
+                                        code_text(line.content, t)
+                                    ),
+                                ));
+                            }
+                        }
+                        state.work_offset = Some(code10);
+                    }
+                    GCode::CancelCycle => state.motion = None,
+                    GCode::Absolute | GCode::Harmless => {}
+                },
+                'M' => {
+                    if let Some(what) = gcodes::unsupported_m(code10) {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "{} cannot be compensated: {what} are not supported",
+                                code_text(line.content, t)
+                            ),
+                        ));
+                    }
+                }
+                'T' => state.tool = Some(number as u32),
+                'H' => h_word = Some((number as u32, t.span.start)),
+                'O' => o_word = Some(t.span.start),
+                'N' | 'F' | 'S' | 'D' | 'P' | 'Q' | 'L' => {}
+                _ => {
+                    let var = (letter.is_ascii_uppercase())
+                        .then(|| self.var_of_letter[(w.letter - b'A') as usize])
+                        .flatten();
+                    match var {
+                        Some(v) => {
+                            if axis_words[v].is_some() {
+                                return Err(at(
+                                    t.span.start,
+                                    format!("{letter} appears twice in one block"),
+                                ));
+                            }
+                            axis_words[v] = Some(i);
+                        }
+                        None if dwell && letter == 'X' => {}
+                        None => {
+                            let what = if "XYZABCUVW".contains(letter) {
+                                format!(
+                                    "{letter} is not an axis of this machine (its axes are {})",
+                                    self.axis_letters()
+                                )
+                            } else if "IJKR".contains(letter) {
+                                format!(
+                                    "{letter} words (arc centres, radii, tool vectors) are not supported"
+                                )
+                            } else {
+                                format!("{letter} words are not known to nccomp")
+                            };
+                            return Err(at(
+                                t.span.start,
+                                format!("{what}; expected a G0/G1 block in machine axes"),
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+        if !has_words {
+            return Ok(());
+        }
+        if let Some(col) = o_word {
+            if tokens.iter().any(|t| {
+                matches!(t.kind, TokenKind::Other | TokenKind::Word(_)) && t.span.start > col
+            }) {
+                return Err(at(col, "O-word control flow (subprograms, loops, conditionals) cannot be compensated; expected a plain program number line".into()));
+            }
+            return Ok(());
+        }
+        if g43 {
+            let number = match h_word {
+                Some((h, _)) => h,
+                None => state.tool.ok_or_else(|| {
+                    at(
+                        0,
+                        "G43 without an H word and no tool selected (expected G43 Hn)".into(),
+                    )
+                })?,
+            };
+            state.length = *self.machine.tool.lengths.get(&number).ok_or_else(|| {
+                at(h_word.map_or(0, |h| h.1), format!(
+                    "tool length H{number} is not in the machine file's [tool] lengths (expected one of: {})",
+                    self.machine.tool.lengths.keys().map(|k| k.to_string()).collect::<Vec<_>>().join(", ")
+                ))
+            })?;
+        }
+        if g49 {
+            state.length = self.machine.tool.length;
+        }
+        if let Some((g, _)) = motion_in_block {
+            state.motion = Some(g);
+        }
+        let moves = axis_words[..n].iter().any(Option::is_some);
+        if dwell || !moves {
+            return Ok(());
+        }
+        if let Some(off) = other_text {
+            return Err(at(
+                off,
+                "unexpected text in a motion block (expected words such as G1 X10.5)".into(),
+            ));
+        }
+        if state.motion == Some(GCode::Arc) {
+            let col = motion_in_block.map_or(0, |m| m.1);
+            return Err(at(
+                col,
+                "arcs (G2/G3) cannot be compensated yet; expected G0/G1 moves".into(),
+            ));
+        }
+        // New nominal values.
+        for v in 0..n {
+            if let Some(i) = axis_words[v] {
+                let value = word_number(&tokens[i]);
+                state.nominal[v] = if state.inch && self.is_linear(v) {
+                    value * INCH
+                } else {
+                    value
+                };
+            }
+        }
+        let sol = self
+            .kin
+            .compensate(&state.nominal[..n], state.length, &self.options.solve);
+        summary.motion_blocks += 1;
+        // Guard against a model or pose that turns microns into a big move.
+        for v in 0..n {
+            let delta = (sol.q[v] - state.nominal[v]).abs();
+            let limit = if self.is_linear(v) {
+                self.options.max_correction.0
+            } else {
+                self.options.max_correction.1
+            };
+            if !(delta <= limit) {
+                let col = axis_words
+                    .iter()
+                    .flatten()
+                    .map(|&i| tokens[i].span.start)
+                    .min()
+                    .unwrap_or(0);
+                return Err(at(
+                    col,
+                    format!(
+                        "the correction of axis {} would be {delta:.4} {} (more than {limit}); the error model or this pose is not sound",
+                        self.axis_name(v),
+                        if self.is_linear(v) { "mm" } else { "°" }
+                    ),
+                ));
+            }
+        }
+        // Rewrite present words, add missing ones.
+        let mut scratch = String::new();
+        for v in 0..n {
+            let to_units = |x: f64| {
+                if state.inch && self.is_linear(v) {
+                    x / INCH
+                } else {
+                    x
+                }
+            };
+            let from_units = |x: f64| {
+                if state.inch && self.is_linear(v) {
+                    x * INCH
+                } else {
+                    x
+                }
+            };
+            let value = to_units(sol.q[v]);
+            match axis_words[v] {
+                Some(i) => {
+                    let t = &tokens[i];
+                    let TokenKind::Word(w) = &t.kind else {
+                        unreachable!()
+                    };
+                    let Value::Number {
+                        value: old,
+                        decimals,
+                    } = w.value
+                    else {
+                        unreachable!()
+                    };
+                    let d = decimals.max(self.res_decimals(v, state.inch));
+                    state.decimals[v] = d;
+                    scratch.clear();
+                    write_fixed(old, d, &mut scratch);
+                    let old_text = scratch.clone();
+                    scratch.clear();
+                    write_fixed(value, d, &mut scratch);
+                    if scratch == old_text {
+                        state.emitted[v] = from_units(old);
+                    } else {
+                        state.emitted[v] = from_units(scratch.parse().unwrap_or(value));
+                        edits.push(Edit {
+                            at: w.value_span.clone(),
+                            text: scratch.clone(),
+                        });
+                        summary.words_changed += 1;
+                    }
+                    state.programmed |= 1 << v;
+                }
+                None => {
+                    let d = state.decimals[v].max(self.res_decimals(v, state.inch));
+                    scratch.clear();
+                    write_fixed(to_units(state.emitted[v]), d, &mut scratch);
+                    let old_text = scratch.clone();
+                    scratch.clear();
+                    write_fixed(value, d, &mut scratch);
+                    if scratch != old_text {
+                        state.emitted[v] = from_units(scratch.parse().unwrap_or(value));
+                        edits.push(self.insertion(tokens, &axis_words, v, &scratch));
+                        summary.words_added += 1;
+                        if state.programmed & (1 << v) == 0 {
+                            summary.note_assumed_home(self.axis_name(v), line.number);
+                        }
+                    }
+                }
+            }
+        }
+        // Travel limits, on what the machine is now told.
+        for v in 0..n {
+            if let Some([lo, hi]) = self.machine.axes[self.kin.axes()[v]].travel {
+                let x = state.emitted[v];
+                if x < lo - 1e-9 || x > hi + 1e-9 {
+                    let (limit, side) = if x < lo { (lo, "below") } else { (hi, "above") };
+                    let col = axis_words[v].map_or(0, |i| tokens[i].span.start);
+                    let message = format!(
+                        "after compensation axis {} = {x:.4} is {side} its travel limit {limit}",
+                        self.axis_name(v)
+                    );
+                    if self.options.allow_limit_violations {
+                        summary
+                            .limit_violations
+                            .push(format!("line {}: {message}", line.number));
+                    } else {
+                        return Err(at(
+                            col,
+                            format!("{message} (use --allow-limit-violations to write it anyway)"),
+                        ));
+                    }
+                }
+            }
+        }
+        // What the block does before and after, as the model predicts it.
+        let (target, _) = self
+            .kin
+            .pose(Model::Nominal, &state.nominal[..n], state.length);
+        let (before, _) = self
+            .kin
+            .pose(Model::Actual, &state.nominal[..n], state.length);
+        let (after, beyond) = self
+            .kin
+            .pose(Model::Actual, &state.emitted[..n], state.length);
+        let (bp, bd) = before.deviation(&target);
+        let (ap, ad) = after.deviation(&target);
+        summary.record(line.number, bp, bd, ap, ad, sol.held != 0, beyond);
+        if sol.held != 0 {
+            for v in 0..n {
+                if sol.held & (1 << v) != 0 {
+                    summary.note_held(self.axis_name(v));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn axis_letters(&self) -> String {
+        (0..self.kin.len())
+            .map(|v| (self.letter(v) as char).to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// Where and how to add a word for variable `v` to a block that lacks it: in the
+    /// machine's axis order among the block's axis words, in the block's own style.
+    fn insertion(
+        &self,
+        tokens: &[Token],
+        axis_words: &[Option<usize>; MAX_AXES],
+        v: usize,
+        number: &str,
+    ) -> Edit {
+        let order = |var: usize| axis_order(self.letter(var));
+        let mine = order(v);
+        let present = || {
+            axis_words
+                .iter()
+                .enumerate()
+                .filter_map(|(var, t)| t.map(|i| (var, i)))
+        };
+        let after = present()
+            .filter(|&(var, _)| order(var) < mine)
+            .max_by_key(|&(var, _)| order(var));
+        let lowercase = tokens.iter().find_map(|t| match &t.kind {
+            TokenKind::Word(w) => Some(w.lowercase),
+            _ => None,
+        }) == Some(true);
+        // Words separated by spaces get a space; packed blocks (G1X10Y5) stay packed.
+        let spaced = tokens.windows(3).any(|w| {
+            matches!(w[0].kind, TokenKind::Word(_))
+                && w[1].kind == TokenKind::Space
+                && matches!(w[2].kind, TokenKind::Word(_))
+        });
+        let letter = if lowercase {
+            self.letter(v).to_ascii_lowercase()
+        } else {
+            self.letter(v)
+        } as char;
+        let word = format!("{letter}{number}");
+        let sep = if spaced { " " } else { "" };
+        match after {
+            Some((_, i)) => {
+                let end = tokens[i].span.end;
+                Edit {
+                    at: end..end,
+                    text: format!("{sep}{word}"),
+                }
+            }
+            None => {
+                let first = present()
+                    .min_by_key(|&(var, _)| order(var))
+                    .map(|(_, i)| i)
+                    .unwrap_or(0);
+                let start = tokens[first].span.start;
+                Edit {
+                    at: start..start,
+                    text: format!("{word}{sep}"),
+                }
+            }
+        }
+    }
+}
+
+/// The usual order of axis words in a block.
+fn axis_order(letter: u8) -> usize {
+    b"XYZUVWABC".iter().position(|&l| l == letter).unwrap_or(9)
+}
+
+/// A G or M word as the program wrote it (for messages).
+fn code_text(content: &[u8], t: &Token) -> String {
+    String::from_utf8_lossy(&content[t.span.clone()])
+        .trim()
+        .to_string()
+}
+
+/// The number of a token known to be a numeric word.
+fn word_number(t: &Token) -> f64 {
+    match &t.kind {
+        TokenKind::Word(w) => w.number().unwrap_or(0.0),
+        _ => 0.0,
+    }
+}

@@ -1,0 +1,81 @@
+//! What the pass makes of each G and M code.
+//!
+//! The list is a whitelist: a code not named here is refused (when there are errors to
+//! compensate), because a code we do not understand may move the machine in a way the
+//! pass would get wrong.
+
+/// What a G code means to the compensation pass.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GCode {
+    /// Straight move in joint space (G0, G1): block end points are compensated.
+    Motion,
+    /// Circular move (G2, G3).
+    Arc,
+    /// Dwell (G4): its X or P word is a time, not a position.
+    Dwell,
+    Inch,
+    Millimetre,
+    Absolute,
+    /// G43 with an H word: active tool length from the machine file's tool table.
+    ToolLength,
+    /// G49: back to the reference tool length.
+    ToolLengthOff,
+    /// G54 … G59.3: the work offset the machine file's program zero belongs to.
+    WorkOffset,
+    /// G80: cancels a canned cycle, moves nothing.
+    CancelCycle,
+    /// Modal settings that do not change where block ends are (planes, feed modes, path
+    /// control, cancels of things we refuse).
+    Harmless,
+    /// Refused, with the construct's name.
+    Unsupported(&'static str),
+}
+
+/// Classify a G code given as its number times ten (G43.4 → 434).
+pub fn classify(code10: i64) -> GCode {
+    use GCode::*;
+    match code10 {
+        0 | 10 => Motion,
+        20 | 30 => Arc,
+        40 => Dwell,
+        200 => Inch,
+        210 => Millimetre,
+        900 => Absolute,
+        430 => ToolLength,
+        490 => ToolLengthOff,
+        540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => WorkOffset,
+        800 => CancelCycle,
+        // Planes, cutter compensation off, exact stop / blending, polar and scaling and
+        // rotation off, arc centre modes, feed modes, spindle modes, cycle return modes,
+        // lathe radius mode.
+        170 | 171 | 180 | 181 | 190 | 191 | 400 | 610 | 611 | 640 | 150 | 500 | 690 | 901 | 911
+        | 930 | 940 | 950 | 960 | 970 | 980 | 990 | 80 => Harmless,
+        50..=53 => Unsupported("splines (G5.x)"),
+        70 => Unsupported("lathe diameter mode (G7)"),
+        100 => Unsupported("data setting (G10)"),
+        280 | 281 | 300 | 301 => Unsupported("return to a reference point (G28/G30)"),
+        330 | 331 => Unsupported("threading (G33)"),
+        380..=389 => Unsupported("probing moves (G38.x)"),
+        410 | 411 | 420 | 421 => Unsupported("cutter radius compensation (G41/G42)"),
+        431 | 432 => Unsupported("dynamic tool length offsets (G43.1/G43.2)"),
+        434 | 435 => Unsupported("tool-centre-point programs (G43.4/G43.5)"),
+        520 => Unsupported("local coordinate offsets (G52)"),
+        530 => Unsupported("machine-coordinate moves (G53)"),
+        541 => Unsupported("extended work offsets (G54.1)"),
+        680..=689 => Unsupported("coordinate rotation (G68)"),
+        160 => Unsupported("polar coordinates (G16)"),
+        510 | 511 => Unsupported("scaling and mirroring (G51)"),
+        730 | 740 | 760 | 810..=899 => Unsupported("canned cycles"),
+        910 => Unsupported("incremental distance mode (G91)"),
+        920..=923 => Unsupported("coordinate system offsets (G92)"),
+        _ => Unsupported("this G code"),
+    }
+}
+
+/// M codes the pass refuses: program flow it cannot follow.
+pub fn unsupported_m(code10: i64) -> Option<&'static str> {
+    match code10 {
+        970 | 980 | 990 => Some("subprogram calls and returns (M97/M98/M99)"),
+        _ => None,
+    }
+}

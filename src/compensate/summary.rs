@@ -1,0 +1,149 @@
+//! What a compensation run did and what the model predicts, for the user.
+
+use std::fmt;
+
+/// The largest value of something and the line where it occurred.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Extreme {
+    pub value: f64,
+    pub line: usize,
+}
+
+impl Extreme {
+    fn update(&mut self, value: f64, line: usize) {
+        if value > self.value {
+            *self = Extreme { value, line };
+        }
+    }
+}
+
+/// Counts and predicted errors of one run.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Summary {
+    /// The error model is all zero: the program was passed through unchanged.
+    pub zero_model: bool,
+    pub lines: usize,
+    /// Blocks with axis words that were compensated.
+    pub motion_blocks: usize,
+    pub words_changed: usize,
+    pub words_added: usize,
+    /// Largest predicted tip error (mm) and direction error (rad) without compensation...
+    pub before_position: Extreme,
+    pub before_direction: Extreme,
+    /// ... and with the compensated (rounded) axis values.
+    pub after_position: Extreme,
+    pub after_direction: Extreme,
+    /// Blocks where a rotary axis lay along the tool and was held, and the largest
+    /// direction error left there (rad).
+    pub singular_blocks: usize,
+    pub singular_direction: Extreme,
+    /// Axes held at singular poses.
+    pub held_axes: Vec<String>,
+    /// Blocks whose error-table look-up lay beyond a table's ends (values held).
+    pub beyond_table_blocks: usize,
+    pub first_beyond_table: usize,
+    /// Axes that were compensated before the program first set them, assuming their home
+    /// value 0, with the first line where that happened.
+    pub assumed_home: Vec<(String, usize)>,
+    /// Travel-limit violations written anyway (--allow-limit-violations).
+    pub limit_violations: Vec<String>,
+}
+
+impl Summary {
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn record(
+        &mut self,
+        line: usize,
+        before_p: f64,
+        before_d: f64,
+        after_p: f64,
+        after_d: f64,
+        singular: bool,
+        beyond: bool,
+    ) {
+        self.before_position.update(before_p, line);
+        self.before_direction.update(before_d, line);
+        self.after_position.update(after_p, line);
+        if singular {
+            self.singular_blocks += 1;
+            self.singular_direction.update(after_d, line);
+        } else {
+            self.after_direction.update(after_d, line);
+        }
+        if beyond {
+            if self.beyond_table_blocks == 0 {
+                self.first_beyond_table = line;
+            }
+            self.beyond_table_blocks += 1;
+        }
+    }
+
+    pub(crate) fn note_assumed_home(&mut self, axis: &str, line: usize) {
+        if !self.assumed_home.iter().any(|(a, _)| a == axis) {
+            self.assumed_home.push((axis.to_string(), line));
+        }
+    }
+
+    pub(crate) fn note_held(&mut self, axis: &str) {
+        if !self.held_axes.iter().any(|a| a == axis) {
+            self.held_axes.push(axis.to_string());
+        }
+    }
+}
+
+impl fmt::Display for Summary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.zero_model {
+            return write!(
+                f,
+                "{} lines; the error model is zero, so the program is unchanged",
+                self.lines
+            );
+        }
+        writeln!(
+            f,
+            "{} lines, {} motion blocks compensated: {} words changed, {} words added",
+            self.lines, self.motion_blocks, self.words_changed, self.words_added
+        )?;
+        let um = |e: Extreme| format!("{:.3} µm (line {})", e.value * 1e3, e.line);
+        let urad = |e: Extreme| format!("{:.2} µrad (line {})", e.value * 1e6, e.line);
+        writeln!(
+            f,
+            "predicted tip error:       before {}, after {}",
+            um(self.before_position),
+            um(self.after_position)
+        )?;
+        write!(
+            f,
+            "predicted direction error: before {}, after {}",
+            urad(self.before_direction),
+            urad(self.after_direction)
+        )?;
+        if self.singular_blocks > 0 {
+            write!(
+                f,
+                "\n{} blocks at singular poses (tool along axis {}): the axis was held at its programmed value; direction error left there up to {}",
+                self.singular_blocks,
+                self.held_axes.join(", "),
+                urad(self.singular_direction)
+            )?;
+        }
+        if self.beyond_table_blocks > 0 {
+            write!(
+                f,
+                "\nnote: {} blocks (first at line {}) lie beyond the ends of an error table; the end values were used",
+                self.beyond_table_blocks, self.first_beyond_table
+            )?;
+        }
+        for (axis, line) in &self.assumed_home {
+            write!(
+                f,
+                "\nnote: axis {axis} was corrected at line {line} before the program set it; its home value 0 was assumed"
+            )?;
+        }
+        for v in &self.limit_violations {
+            write!(f, "\nwarning: {v}")?;
+        }
+        Ok(())
+    }
+}

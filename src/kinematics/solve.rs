@@ -1,0 +1,202 @@
+//! The compensation solve: axis values q* at which the machine with its errors reaches
+//! the pose the nominal machine reaches at q.
+//!
+//! Newton's method on five equations (three of position, two of direction). Position is a
+//! hard requirement; direction is met in the least-squares sense in what freedom remains.
+//! A rotary axis whose line lies (nearly) along the tool direction cannot turn the tool;
+//! it is held at its nominal value instead of being swung to chase the few micro-radians
+//! of direction error it cannot fix anyway.
+
+use super::{Jacobian, Kinematics, MAX_AXES, Model, Pose, angle_between};
+use crate::model::AxisKind;
+use nalgebra::{DMatrix, DVector, Matrix5, Vector3, Vector5};
+
+/// How the solve behaves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SolveOptions {
+    /// A rotary axis whose line lies within this angle (rad) of the tool direction is
+    /// singular and keeps its nominal value.
+    pub singular_angle: f64,
+    /// Newton iterations at most.
+    pub max_iterations: usize,
+    /// Stop when the tip is this close (mm) ...
+    pub position_tolerance: f64,
+    /// ... and the direction this close (rad), or when steps no longer change anything.
+    pub angle_tolerance: f64,
+}
+
+impl Default for SolveOptions {
+    fn default() -> Self {
+        SolveOptions {
+            singular_angle: 3f64.to_radians(),
+            max_iterations: 25,
+            position_tolerance: 1e-10,
+            angle_tolerance: 1e-12,
+        }
+    }
+}
+
+/// The result of a solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Solution {
+    /// Axis values, one per variable (first `n` entries used).
+    pub q: [f64; MAX_AXES],
+    pub n: usize,
+    /// Remaining tip distance (mm) and direction angle (rad) to the target.
+    pub position_residual: f64,
+    pub direction_residual: f64,
+    pub iterations: usize,
+    /// Bit k set: variable k was held at its start value (singular rotary axis).
+    pub held: u32,
+    /// Whether an error table was read beyond its ends at the solution.
+    pub beyond: bool,
+}
+
+impl Solution {
+    pub fn values(&self) -> &[f64] {
+        &self.q[..self.n]
+    }
+}
+
+/// Two unit vectors perpendicular to `o` and to each other.
+fn tangent_basis(o: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let helper = if o.x.abs() < 0.6 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let b1 = o.cross(&helper).normalize();
+    (b1, o.cross(&b1))
+}
+
+impl Kinematics {
+    /// Compensate one pose: the axis values at which the machine with its errors reaches
+    /// the pose the nominal machine reaches at `q`, with a tool of length `length`.
+    pub fn compensate(&self, q: &[f64], length: f64, options: &SolveOptions) -> Solution {
+        let (target, jac) = self.pose_and_jacobian(Model::Nominal, q, length);
+        let held = self.singular_axes(&target, &jac, options.singular_angle);
+        self.solve(Model::Actual, &target, q, length, held, options)
+    }
+
+    /// Rotary variables whose axis line lies within `limit` (rad) of the tool direction.
+    pub fn singular_axes(&self, pose: &Pose, jac: &Jacobian, limit: f64) -> u32 {
+        let mut held = 0;
+        for k in 0..self.len() {
+            if self.kind(k) == AxisKind::Rotary {
+                let a = jac.axis_dir[k];
+                let off = angle_between(&a, &pose.o).min(angle_between(&-a, &pose.o));
+                if off < limit {
+                    held |= 1 << k;
+                }
+            }
+        }
+        held
+    }
+
+    /// Solve `model`'s axis values to reach `target`, starting from `start`, holding the
+    /// variables whose bits are set in `held`.
+    pub fn solve(
+        &self,
+        model: Model,
+        target: &Pose,
+        start: &[f64],
+        length: f64,
+        held: u32,
+        options: &SolveOptions,
+    ) -> Solution {
+        let n = self.len();
+        let mut q = [0.0; MAX_AXES];
+        q[..n].copy_from_slice(&start[..n]);
+        let (b1, b2) = tangent_basis(&target.o);
+        let free: Vec<usize> = (0..n).filter(|k| held & (1 << k) == 0).collect();
+        let mut iterations = 0;
+        loop {
+            let (pose, jac) = self.pose_and_jacobian(model, &q[..n], length);
+            let rp = pose.p - target.p;
+            let rd = [b1.dot(&pose.o), b2.dot(&pose.o)];
+            let done = rp.norm() <= options.position_tolerance
+                && angle_between(&pose.o, &target.o) <= options.angle_tolerance;
+            if done || iterations >= options.max_iterations {
+                return self.finish(model, target, q, length, held, iterations);
+            }
+            iterations += 1;
+            let step = newton_step(&jac, &free, &rp, &rd, &b1, &b2);
+            let mut biggest: f64 = 0.0;
+            for (i, &k) in free.iter().enumerate() {
+                q[k] -= step[i];
+                biggest = biggest.max(step[i].abs());
+            }
+            if biggest < 1e-13 {
+                return self.finish(model, target, q, length, held, iterations);
+            }
+        }
+    }
+
+    fn finish(
+        &self,
+        model: Model,
+        target: &Pose,
+        q: [f64; MAX_AXES],
+        length: f64,
+        held: u32,
+        iterations: usize,
+    ) -> Solution {
+        let n = self.len();
+        let (pose, beyond) = self.pose(model, &q[..n], length);
+        let (position_residual, direction_residual) = pose.deviation(target);
+        Solution {
+            q,
+            n,
+            position_residual,
+            direction_residual,
+            iterations,
+            held,
+            beyond,
+        }
+    }
+}
+
+/// The Newton step Δ on the free variables with J·Δ = r: position rows exactly (least
+/// squares if out of reach), direction rows as well as the remaining freedom allows.
+fn newton_step(
+    jac: &Jacobian,
+    free: &[usize],
+    rp: &Vector3<f64>,
+    rd: &[f64; 2],
+    b1: &Vector3<f64>,
+    b2: &Vector3<f64>,
+) -> Vec<f64> {
+    let m = free.len();
+    let row = |i: usize, k: usize| match i {
+        0..=2 => jac.dp[k][i],
+        3 => b1.dot(&jac.do_[k]),
+        _ => b2.dot(&jac.do_[k]),
+    };
+    let r = [rp.x, rp.y, rp.z, rd[0], rd[1]];
+    if m == 5 {
+        let a = Matrix5::from_fn(|i, j| row(i, free[j]));
+        if let Some(x) = a.lu().solve(&Vector5::from_column_slice(&r)) {
+            if x.iter().all(|v| v.is_finite()) {
+                return x.iter().copied().collect();
+            }
+        }
+    }
+    // Position as a hard constraint: Δ = Jp⁺·rp + N·z, N projecting onto Jp's null space,
+    // z the least-squares fit of the direction rows within it.
+    let jp = DMatrix::from_fn(3, m, |i, j| row(i, free[j]));
+    let jd = DMatrix::from_fn(2, m, |i, j| row(i + 3, free[j]));
+    let pinv = |a: &DMatrix<f64>| {
+        let svd = a.clone().svd(true, true);
+        let top = svd.singular_values.max();
+        svd.pseudo_inverse((top * 1e-10).max(1e-300))
+            .unwrap_or_else(|_| DMatrix::zeros(a.ncols(), a.nrows()))
+    };
+    let jp_pinv = pinv(&jp);
+    let d0 = &jp_pinv * DVector::from_column_slice(&r[..3]);
+    let null = DMatrix::identity(m, m) - &jp_pinv * &jp;
+    let a = &jd * &null;
+    let rest = DVector::from_column_slice(&r[3..]) - &jd * &d0;
+    let z = pinv(&a) * rest;
+    let d = d0 + null * z;
+    d.iter().copied().collect()
+}
