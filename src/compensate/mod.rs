@@ -41,7 +41,7 @@ impl Default for Options {
             tool_chain: None,
             solve: SolveOptions::default(),
             allow_limit_violations: false,
-            max_correction: (1.0, 1.0),
+            max_correction: (10.0, 2.0),
             max_errors: 20,
         }
     }

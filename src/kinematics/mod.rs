@@ -121,7 +121,7 @@ struct Chains {
 /// tool chain, nominal and with errors.
 #[derive(Debug, Clone)]
 pub struct Kinematics {
-    /// Machine axis index of each variable, workpiece chain first, then the tool chain.
+    /// Machine axis index of each variable, in the machine file's axis order.
     axes: Vec<usize>,
     kinds: Vec<AxisKind>,
     nominal: Chains,
@@ -149,19 +149,22 @@ impl Kinematics {
             .tool_chains
             .get(tool_chain)
             .ok_or_else(|| KinematicsError::NoSuchToolChain(tool_chain.to_string()))?;
-        let axes: Vec<usize> = machine
+        // Variables in the machine file's axis order, whichever chain moves them.
+        let mut axes: Vec<usize> = machine
             .workpiece_chain
             .iter()
             .chain(tool.axes.iter())
             .copied()
             .collect();
+        axes.sort_unstable();
+        axes.dedup();
         if axes.len() > MAX_AXES {
             return Err(KinematicsError::TooManyAxes(axes.len()));
         }
         let zero = ErrorModel::zero(machine);
         let build = |model: &ErrorModel| {
-            let joint = |var: usize| {
-                let i = axes[var];
+            let joint = |i: usize| {
+                let var = axes.iter().position(|&a| a == i).unwrap_or(0);
                 let axis = &machine.axes[i];
                 let err = &model.axes[i];
                 match axis.kind {
@@ -185,10 +188,9 @@ impl Kinematics {
                     },
                 }
             };
-            let nw = machine.workpiece_chain.len();
             Chains {
-                workpiece: (0..nw).map(joint).collect(),
-                tool: (nw..axes.len()).map(joint).collect(),
+                workpiece: machine.workpiece_chain.iter().map(|&i| joint(i)).collect(),
+                tool: tool.axes.iter().map(|&i| joint(i)).collect(),
             }
         };
         Ok(Kinematics {
