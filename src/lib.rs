@@ -10,5 +10,6 @@ pub mod diag;
 pub mod kinematics;
 pub mod model;
 pub mod nc;
+pub mod workpiece;
 
 pub use diag::{Diagnostic, Error, Result};

@@ -200,3 +200,24 @@ fn newton_step(
     let d = d0 + null * z;
     d.iter().copied().collect()
 }
+
+impl Kinematics {
+    /// Inverse kinematics: axis values at which `model` reaches `target`, by Newton's
+    /// method from `guess` (which picks the branch). A rotary axis that is singular at the
+    /// target keeps its guessed value. `None` when the solve does not land within 1e-9 mm
+    /// and 1e-9 rad (a target out of reach, or a guess too far away).
+    pub fn inverse(
+        &self,
+        model: Model,
+        target: &Pose,
+        guess: &[f64],
+        length: f64,
+        options: &SolveOptions,
+    ) -> Option<Solution> {
+        let (_, jac) = self.pose_and_jacobian(model, guess, length);
+        let held = self.singular_axes(target, &jac, options.singular_angle);
+        let sol = self.solve(model, target, guess, length, held, options);
+        let direction_ok = held != 0 || sol.direction_residual < 1e-9;
+        (sol.position_residual < 1e-9 && direction_ok).then_some(sol)
+    }
+}
