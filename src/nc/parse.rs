@@ -17,10 +17,14 @@
 //!   A `/` anywhere else is `Other`.
 //! * `Percent`: every `%` byte (outside comments and brackets).
 //! * `Word`: an ASCII letter followed, after optional spaces/tabs, by a value: a number
-//!   `[+-]?(digits[.digits?]|.digits)`, an expression `[...]` (nested brackets, to the end
-//!   of the line if unclosed), or a parameter (`#` repeated, then digits, `<name>` or
-//!   `[...]`). When no value follows, the word is just the letter with
-//!   [`Value::Missing`], and the spaces after it are a separate `Space` token.
+//!   `[+-]?(digits[.digits?]|.digits)` ([`Value::Number`]), an expression `[...]` (nested
+//!   brackets, to the end of the line if unclosed), a function call such as `SIN[30]`
+//!   or `EXISTS[#<x>]` ([`Value::Expression`]), or a parameter (`#` repeated, then digits,
+//!   `<name>` or `[...]`: [`Value::Parameter`]). As in rs274ngc, a `+`/`-` that is not
+//!   followed by a digit or `.` is a unary operator in front of a value: `X-#<x_max>` is a
+//!   parameter value, `X-[1]` and `X--1` are expressions. When no value follows, the
+//!   word is just the letter with [`Value::Missing`], and the spaces after it are a
+//!   separate `Space` token.
 //! * Keywords: a letter *immediately* followed by another letter starts a run of letters
 //!   that is one `Other` token (`sub`, `endsub`, `call`, `while`, `if`, `GOTO`, `DO`,
 //!   `MSG`...). So `o100 sub` is `Word(O100)`, `Space`, `Other("sub")`, and `XY10` is
@@ -29,13 +33,15 @@
 //! * `Other`: everything else. A standalone `[...]`, parameter reference (`#1`, `##2`,
 //!   `#<name>`, `#[..]`) or `<name>` (as in `o<name> call`) is taken as a unit so that the
 //!   letters inside never become words; consecutive `Other` pieces are merged into one
-//!   token (`#1=5` is one token).
+//!   token (`#1=5` is one token). LinuxCNC's polar words `@` (radius) and `^` (angle)
+//!   are not letters, so `G1 @.5 ^90` has `Other` tokens `@.5` and `^90`: a pass must not
+//!   assume that a line whose `Other` tokens it ignores has no motion.
 
 use nom::branch::alt;
 use nom::bytes::complete::{take_until, take_while, take_while1};
-use nom::character::complete::{char, digit0, digit1, one_of};
-use nom::combinator::{consumed, opt, recognize, rest};
-use nom::multi::many1_count;
+use nom::character::complete::{char, digit0, digit1, one_of, satisfy};
+use nom::combinator::{consumed, not, opt, peek, recognize, rest, verify};
+use nom::multi::{many0_count, many1_count};
 use nom::sequence::{preceded, terminated};
 use nom::{FindSubstring, IResult, Parser};
 
@@ -253,14 +259,48 @@ fn word(i: &[u8]) -> (usize, TokenKind) {
     (len, TokenKind::Word(word))
 }
 
-/// A word's value: a number, an expression or a parameter.
+/// A word's value: a number, an expression or a parameter, as rs274ngc's
+/// `read_real_value` reads it: a `+`/`-` not followed by a digit or `.` is a unary
+/// operator in front of another value (`X-#<x_max>`, `X-[1+2]`, `X--1`), and a function
+/// call (two or more letters and `[...]`, `ATAN[..]/[..]`) is an expression.
+///
+/// The kind is that of the value after the unary signs, except that a signed number
+/// (`--1`) is an [`Value::Expression`]: it is not a literal as written.
 fn value(i: &[u8]) -> PResult<'_, Value> {
-    alt((
+    let unary_sign = terminated(
+        one_of("+-"),
+        peek(not(satisfy(|c: char| c.is_ascii_digit() || c == '.'))),
+    );
+    let (r, signs) = many0_count(unary_sign).parse(i)?;
+    let (r, value) = alt((
         number,
         expression.map(|_| Value::Expression),
         parameter.map(|_| Value::Parameter),
+        function.map(|_| Value::Expression),
     ))
-    .parse(i)
+    .parse(r)?;
+    let value = match value {
+        Value::Number { .. } if signs > 0 => Value::Expression,
+        v => v,
+    };
+    Ok((r, value))
+}
+
+/// A function call as a value: `SIN[30]`, `exists[#<x>]`, `ATAN[1]/[2]`.
+fn function(i: &[u8]) -> PResult<'_, &[u8]> {
+    let (r, name) = verify(
+        take_while1(|b: u8| b.is_ascii_alphabetic()),
+        |n: &[u8]| n.len() >= 2,
+    )
+    .parse(i)?;
+    let (r, _) = expression(r)?;
+    let r = if name.eq_ignore_ascii_case(b"atan") {
+        after(opt((char('/'), expression)).parse(r), r)
+    } else {
+        r
+    };
+    let n = i.len() - r.len();
+    Ok((r, &i[..n]))
 }
 
 /// `[+-]?(digits[.digits?]|.digits)`, as [`Value::Number`].
@@ -541,6 +581,46 @@ mod tests {
     }
 
     #[test]
+    fn unary_signs_and_functions() {
+        assert_eq!(
+            show(b"X-#<x_max> Y+[1] Z--1 A-.5 B- C EXISTS[#1] D atan[1]/[2] E-sin[3]"),
+            v(&[
+                ("PX", "X-#<x_max>"),
+                ("S", " "),
+                ("EY", "Y+[1]"),
+                ("S", " "),
+                ("EZ", "Z--1"),
+                ("S", " "),
+                ("WA", "A-.5"),
+                ("S", " "),
+                ("MB", "B"),
+                ("O", "-"),
+                ("S", " "),
+                ("EC", "C EXISTS[#1]"),
+                ("S", " "),
+                ("ED", "D atan[1]/[2]"),
+                ("S", " "),
+                ("EE", "E-sin[3]"),
+            ])
+        );
+        // Glued letters stay a keyword run (Fanuc `WHILE[..]` must not be `W` + `HILE[..]`).
+        assert_eq!(show(b"Xsin[30]"), v(&[("O", "Xsin[30]")]));
+        assert_eq!(show(b"X SIN"), v(&[("MX", "X"), ("S", " "), ("O", "SIN")]));
+        assert_eq!(show(b"X ab[1]/[2]"), v(&[("EX", "X ab[1]"), ("O", "/[2]")]));
+        // Polar words are not letters.
+        assert_eq!(
+            show(b"G1 @.5 ^90"),
+            v(&[
+                ("WG", "G1"),
+                ("S", " "),
+                ("O", "@.5"),
+                ("S", " "),
+                ("O", "^90")
+            ])
+        );
+    }
+
+    #[test]
     fn comments_percent_block_delete() {
         assert_eq!(
             show(b"  / G0 (a) (b ; c"),
@@ -639,6 +719,18 @@ mod tests {
         let mut s = b"X".to_vec();
         s.extend(std::iter::repeat_n(b'#', 100_000));
         s.extend(std::iter::repeat_n(b'[', 100_000));
+        let t = toks(&s);
+        assert_eq!(t.len(), 1);
+        assert!(matches!(
+            &t[0].kind,
+            TokenKind::Word(Word {
+                value: Value::Parameter,
+                ..
+            })
+        ));
+        let mut s = b"X".to_vec();
+        s.extend(std::iter::repeat_n(b'-', 100_000));
+        s.extend_from_slice(b"#1");
         let t = toks(&s);
         assert_eq!(t.len(), 1);
         assert!(matches!(
