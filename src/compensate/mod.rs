@@ -237,6 +237,7 @@ impl<'m> Compensator<'m> {
         let mut g49 = false;
         let mut o_word = None;
         let mut other_text = None;
+        let mut arc_word: Option<(char, usize)> = None;
         for (i, t) in tokens.iter().enumerate() {
             let w = match &t.kind {
                 TokenKind::Word(w) => w,
@@ -347,15 +348,14 @@ impl<'m> Compensator<'m> {
                             axis_words[v] = Some(i);
                         }
                         None if dwell && letter == 'X' => {}
+                        None if "IJKR".contains(letter) => {
+                            arc_word.get_or_insert((letter, t.span.start));
+                        }
                         None => {
                             let what = if "XYZABCUVW".contains(letter) {
                                 format!(
                                     "{letter} is not an axis of this machine (its axes are {})",
                                     self.axis_letters()
-                                )
-                            } else if "IJKR".contains(letter) {
-                                format!(
-                                    "{letter} words (arc centres, radii, tool vectors) are not supported"
                                 )
                             } else {
                                 format!("{letter} words are not known to nccomp")
@@ -367,6 +367,23 @@ impl<'m> Compensator<'m> {
                         }
                     }
                 }
+            }
+        }
+        if let Some(off) = other_text {
+            // Parameter assignments (`#1 = 5`) move nothing; a parameter used in a word is
+            // caught above. Anything else may be motion we do not understand.
+            if line.content[off] != b'#' && o_word.is_none() {
+                let end = tokens
+                    .iter()
+                    .find(|t| t.span.start == off)
+                    .map_or(off + 1, |t| t.span.end);
+                return Err(at(
+                    off,
+                    format!(
+                        "`{}` cannot be compensated (expected words such as G1 X10.5)",
+                        String::from_utf8_lossy(&line.content[off..end])
+                    ),
+                ));
             }
         }
         if !has_words {
@@ -403,15 +420,24 @@ impl<'m> Compensator<'m> {
         if let Some((g, _)) = motion_in_block {
             state.motion = Some(g);
         }
+        if state.motion == Some(GCode::Arc) && (motion_in_block.is_some() || arc_word.is_some()) {
+            let col = motion_in_block.map_or(0, |m| m.1);
+            return Err(at(
+                col,
+                "arcs (G2/G3) cannot be compensated yet; expected G0/G1 moves".into(),
+            ));
+        }
+        if let Some((letter, col)) = arc_word {
+            return Err(at(
+                col,
+                format!(
+                    "{letter} words (arc centres and radii, tool vectors) are not supported; expected a G0/G1 block in machine axes"
+                ),
+            ));
+        }
         let moves = axis_words[..n].iter().any(Option::is_some);
         if dwell || !moves {
             return Ok(());
-        }
-        if let Some(off) = other_text {
-            return Err(at(
-                off,
-                "unexpected text in a motion block (expected words such as G1 X10.5)".into(),
-            ));
         }
         if state.motion == Some(GCode::Arc) {
             let col = motion_in_block.map_or(0, |m| m.1);

@@ -1,0 +1,232 @@
+//! The compensation pass end to end in the library: programs in, programs out, and an
+//! independent evaluation of what the output makes the erroneous machine do.
+
+mod common;
+
+use common::{Lcg, ac_trunnion, random_errors};
+use nccomp::compensate::{Compensator, Options};
+use nccomp::kinematics::{Kinematics, Model};
+use nccomp::model::{ErrorModel, Machine};
+
+fn machine() -> Machine {
+    let mut m = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    m.axes[3].travel = Some([-120.0, 30.0]);
+    m
+}
+
+/// A five-axis G0/G1 program like the outside checker's: N numbers, comments, modal axis
+/// words, starting at A0 C0.
+fn random_program(rng: &mut Lcg, blocks: usize) -> String {
+    let mut s =
+        String::from("%\n(RANDOM FIVE-AXIS TEST)\nN10 G21 G90 G17\nN20 G0 X0 Y0 Z50. A0 C0\n");
+    let mut q = [0.0, 0.0, 50.0, 0.0, 0.0];
+    for i in 0..blocks {
+        let mut words = Vec::new();
+        for (k, letter) in ["X", "Y", "Z", "A", "C"].iter().enumerate() {
+            if rng.next() < 0.6 || i == 0 {
+                q[k] = match k {
+                    0 | 1 => rng.sym(150.0),
+                    2 => 20.0 + rng.next() * 100.0,
+                    3 => -100.0 + rng.next() * 125.0,
+                    _ => rng.sym(180.0),
+                };
+                // Sometimes land exactly on A = 0 (singular), sometimes near it.
+                if k == 3 && rng.next() < 0.15 {
+                    q[k] = rng.sym(2.0).round();
+                }
+                words.push(format!("{letter}{:.3}", q[k]));
+            }
+        }
+        if words.is_empty() {
+            words.push(format!("X{:.3}", q[0]));
+        }
+        let g = if i % 7 == 0 {
+            "G0 "
+        } else if i % 7 == 1 {
+            "G1 "
+        } else {
+            ""
+        };
+        let comment = if i % 11 == 0 { " (PASS)" } else { "" };
+        s.push_str(&format!(
+            "N{} {g}{}{comment}\n",
+            30 + 10 * i,
+            words.join(" ")
+        ));
+    }
+    s.push_str("N99999 M30\n%\n");
+    s
+}
+
+/// Read axis values block by block the simple way: every line's X Y Z A C words update a
+/// modal state; one state per line.
+fn axis_states(program: &str) -> Vec<[f64; 5]> {
+    let mut q = [0.0; 5];
+    let mut out = Vec::new();
+    for line in program.lines() {
+        let clean: String = {
+            let mut depth = 0;
+            line.chars()
+                .filter(|&c| {
+                    if c == '(' {
+                        depth += 1;
+                    }
+                    let keep = depth == 0;
+                    if c == ')' {
+                        depth -= 1;
+                    }
+                    keep
+                })
+                .collect()
+        };
+        for word in clean.split_whitespace() {
+            let (letter, value) = word.split_at(1);
+            if let (Some(k), Ok(v)) = ("XYZAC".find(letter), value.parse::<f64>()) {
+                q[k] = v;
+            }
+        }
+        out.push(q);
+    }
+    out
+}
+
+#[test]
+fn every_programmed_pose_is_reached() {
+    let machine = machine();
+    for seed in 1..=8u64 {
+        let mut rng = Lcg(seed);
+        let errors = random_errors(&machine, &mut rng);
+        let program = random_program(&mut rng, 300);
+        let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+        let mut out = Vec::new();
+        let summary = comp.run(program.as_bytes(), "random.nc", &mut out).unwrap();
+        let out = String::from_utf8(out).unwrap();
+        let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+        let nominal = axis_states(&program);
+        let actual = axis_states(&out);
+        assert_eq!(nominal.len(), actual.len(), "no block goes missing");
+        let (mut worst_before, mut worst_after) = (0.0f64, 0.0f64);
+        let moves: Vec<bool> = program
+            .lines()
+            .map(|l| {
+                l.split('(')
+                    .next()
+                    .unwrap()
+                    .split_whitespace()
+                    .any(|w| "XYZAC".contains(&w[..1]))
+            })
+            .collect();
+        for (line, (qn, qa)) in nominal.iter().zip(&actual).enumerate() {
+            if !moves[line] {
+                continue;
+            }
+            let (target, _) = kin.pose(Model::Nominal, qn, 0.0);
+            let (before, _) = kin.pose(Model::Actual, qn, 0.0);
+            let (reached, _) = kin.pose(Model::Actual, qa, 0.0);
+            let (dp, dd) = reached.deviation(&target);
+            worst_before = worst_before.max(before.deviation(&target).0);
+            worst_after = worst_after.max(dp);
+            assert!(
+                dp < 1e-3,
+                "seed {seed} line {}: tip off by {dp} mm",
+                line + 1
+            );
+            let singular = qn[3].abs() < 3.0;
+            if singular {
+                assert_eq!(
+                    qa[4],
+                    qn[4],
+                    "seed {seed} line {}: C must not swing at A = {}",
+                    line + 1,
+                    qn[3]
+                );
+            } else {
+                assert!(
+                    dd < 10e-6,
+                    "seed {seed} line {}: direction off by {dd} rad",
+                    line + 1
+                );
+            }
+        }
+        assert!(
+            worst_before > 5e-3,
+            "the errors matter before compensation ({worst_before})"
+        );
+        assert!(worst_after < 1e-3);
+        assert!(summary.words_changed > 0);
+        assert!((summary.after_position.value - worst_after).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn zero_model_gives_the_program_back_byte_for_byte() {
+    let machine = machine();
+    let program = random_program(&mut Lcg(42), 50).replace('\n', "\r\n");
+    let comp = Compensator::new(&machine, &ErrorModel::zero(&machine), Options::default()).unwrap();
+    let mut out = Vec::new();
+    comp.run(program.as_bytes(), "p.nc", &mut out).unwrap();
+    assert_eq!(out, program.as_bytes());
+}
+
+fn compensate(program: &str) -> Result<String, String> {
+    let machine = machine();
+    let errors = random_errors(&machine, &mut Lcg(7));
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let mut out = Vec::new();
+    comp.run(program.as_bytes(), "p.nc", &mut out)
+        .map(|_| String::from_utf8(out).unwrap())
+        .map_err(|e| e.to_string())
+}
+
+#[test]
+fn unchanged_bytes_stay_and_missing_axes_are_added() {
+    let out = compensate("n10 g1 x100.5 (keep) y 20\r\nN20 G0 Z50\r\n/N30 X10\r\n; end").unwrap();
+    let lines: Vec<&str> = out.split("\r\n").collect();
+    assert_eq!(lines.len(), 4);
+    // Lowercase stays lowercase, the comment and the space after `y` stay.
+    assert!(lines[0].starts_with("n10 g1 x100.5"), "{}", lines[0]);
+    assert!(lines[0].contains(" (keep) y 20"), "{}", lines[0]);
+    // Axes the block left out but that must move are added, in the block's style.
+    assert!(
+        lines[0].contains(" z") && lines[0].contains(" a"),
+        "{}",
+        lines[0]
+    );
+    assert!(lines[2].starts_with("/N30 X10."), "{}", lines[2]);
+    assert_eq!(lines[3], "; end");
+}
+
+#[test]
+fn unsupported_blocks_are_errors_with_line_and_column() {
+    for (program, needle) in [
+        ("G1 X10\nG2 X20 Y10 I5 J0\n", "p.nc:2:1: arcs"),
+        ("G91 G1 X10\n", "p.nc:1:1: G91 cannot be compensated"),
+        ("G1 X[#1+2]\n", "p.nc:1:4: X is given by an expression"),
+        ("G1 X#5\n", "p.nc:1:4: X is given by a parameter"),
+        ("G43.4 H1\nG1 X1\n", "p.nc:1:1: G43.4 cannot be compensated"),
+        (
+            "G1 X1\nG81 X1 Y1 Z-2 R1\n",
+            "p.nc:2:1: G81 cannot be compensated",
+        ),
+        ("G1 X1 U3\n", "p.nc:1:7: U is not an axis"),
+        (
+            "o100 sub\nG1 X1\no100 endsub\n",
+            "p.nc:1:1: O-word control flow",
+        ),
+        ("G1 X1 X2\n", "p.nc:1:7: X appears twice"),
+        ("M98 P100\n", "p.nc:1:1: M98 cannot be compensated"),
+    ] {
+        let err = compensate(program).unwrap_err();
+        assert!(err.contains(needle), "{program:?}: {err}");
+    }
+}
+
+#[test]
+fn inch_programs_are_compensated_in_inch() {
+    let out = compensate("G20 G1 X4.0 Y2.0 Z1.0 A-20.0 C30.0\n").unwrap();
+    // Inch words get inch resolution (6 decimals for 0.0001 mm).
+    let x = out.split_whitespace().find(|w| w.starts_with('X')).unwrap();
+    assert_eq!(x.split('.').nth(1).unwrap().len(), 6, "{out}");
+    let value: f64 = x[1..].parse().unwrap();
+    assert!((value - 4.0).abs() < 0.01 && value != 4.0, "{out}");
+}
