@@ -142,9 +142,9 @@ fn check_lands(machine: &nccomp::model::Machine, seed: u64, q: [f64; 5], length:
         );
     } else {
         // A held axis keeps its programmed value exactly.
-        for k in 0..5 {
+        for (k, programmed) in q.iter().enumerate() {
             if sol.held & (1 << k) != 0 {
-                assert_eq!(sol.q[k], q[k]);
+                assert_eq!(sol.q[k], *programmed);
             }
         }
     }

@@ -302,8 +302,10 @@ impl<'m> Compensator<'m> {
                     GCode::ToolLength => g43 = true,
                     GCode::ToolLengthOff => g49 = true,
                     GCode::WorkOffset => {
-                        if let Some(prev) = state.work_offset {
-                            if prev != code10 {
+                        if let Some(prev) = state.work_offset
+                            && prev != code10
+                        {
+                            {
                                 return Err(at(
                                     t.span.start,
                                     format!(
@@ -447,8 +449,8 @@ impl<'m> Compensator<'m> {
             ));
         }
         // New nominal values.
-        for v in 0..n {
-            if let Some(i) = axis_words[v] {
+        for (v, word) in axis_words.iter().enumerate().take(n) {
+            if let Some(i) = *word {
                 let value = word_number(&tokens[i]);
                 state.nominal[v] = if state.inch && self.is_linear(v) {
                     value * INCH
@@ -469,7 +471,7 @@ impl<'m> Compensator<'m> {
             } else {
                 self.options.max_correction.1
             };
-            if !(delta <= limit) {
+            if delta.is_nan() || delta > limit {
                 let col = axis_words
                     .iter()
                     .flatten()
@@ -555,12 +557,12 @@ impl<'m> Compensator<'m> {
             }
         }
         // Travel limits, on what the machine is now told.
-        for v in 0..n {
+        for (v, word) in axis_words.iter().enumerate().take(n) {
             if let Some([lo, hi]) = self.machine.axes[self.kin.axes()[v]].travel {
                 let x = state.emitted[v];
                 if x < lo - 1e-9 || x > hi + 1e-9 {
                     let (limit, side) = if x < lo { (lo, "below") } else { (hi, "above") };
-                    let col = axis_words[v].map_or(0, |i| tokens[i].span.start);
+                    let col = word.map_or(0, |i| tokens[i].span.start);
                     let message = format!(
                         "after compensation axis {} = {x:.4} is {side} its travel limit {limit}",
                         self.axis_name(v)

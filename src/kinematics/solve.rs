@@ -175,10 +175,10 @@ fn newton_step(
     let r = [rp.x, rp.y, rp.z, rd[0], rd[1]];
     if m == 5 {
         let a = Matrix5::from_fn(|i, j| row(i, free[j]));
-        if let Some(x) = a.lu().solve(&Vector5::from_column_slice(&r)) {
-            if x.iter().all(|v| v.is_finite()) {
-                return x.iter().copied().collect();
-            }
+        if let Some(x) = a.lu().solve(&Vector5::from_column_slice(&r))
+            && x.iter().all(|v| v.is_finite())
+        {
+            return x.iter().copied().collect();
         }
     }
     // Position as a hard constraint: Δ = Jp⁺·rp + N·z, N projecting onto Jp's null space,
