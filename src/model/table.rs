@@ -44,7 +44,11 @@ impl MotionTable {
             if n == 1 || x >= p[n - 1] {
                 // Between the last entry and the first one a period later.
                 let span = first + 360.0 - p[n - 1];
-                let w = if span > 0.0 { (x - p[n - 1]) / span } else { 0.0 };
+                let w = if span > 0.0 {
+                    (x - p[n - 1]) / span
+                } else {
+                    0.0
+                };
                 (n - 1, 0, w)
             } else {
                 let k = p.partition_point(|&v| v <= x);
@@ -78,7 +82,14 @@ mod tests {
     fn table(periodic: bool) -> MotionTable {
         MotionTable {
             positions: vec![0.0, 90.0, 180.0, 270.0],
-            values: [Some(vec![0.0, 0.5, 0.0, -0.5]), None, None, None, None, None],
+            values: [
+                Some(vec![0.0, 0.5, 0.0, -0.5]),
+                None,
+                None,
+                None,
+                None,
+                None,
+            ],
             periodic,
         }
     }
