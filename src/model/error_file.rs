@@ -16,7 +16,7 @@
 //! ```
 //!
 //! Everything is converted to mm and rad. Names are mapped onto the model by
-//! [`terms`](super::terms); a name that is unknown, misplaced or meaningless is an error
+//! [`terms`]; a name that is unknown, misplaced or meaningless is an error
 //! at its place in the file, never a silent zero. Missing terms are zero, so a file with
 //! nothing but its units is the zero model.
 
@@ -92,6 +92,20 @@ pub fn parse(text: &str, path: &str, machine: &Machine) -> Result<ErrorModel> {
         }
     }
     Ok(model)
+}
+
+/// Names for a message: the `positions` key in backquotes, error names as they are.
+fn listed(names: &[String]) -> Vec<String> {
+    names
+        .iter()
+        .map(|n| {
+            if n == "positions" {
+                format!("`{n}`")
+            } else {
+                n.clone()
+            }
+        })
+        .collect()
 }
 
 /// Factors from the file's units to mm and rad.
@@ -395,7 +409,7 @@ impl<'t> ErrorFile<'_, 't> {
             let expected = if candidates.is_empty() {
                 format!("{section} takes no terms on this machine")
             } else {
-                format!("expected one of {}", or_list(candidates))
+                format!("expected one of {}", or_list(&listed(candidates)))
             };
             return Err(doc.err(
                 key.span(),
@@ -432,7 +446,7 @@ impl<'t> ErrorFile<'_, 't> {
             let list = if candidates.is_empty() {
                 String::new()
             } else {
-                format!("; {section} takes {}", and_list(candidates))
+                format!("; {section} takes {}", and_list(&listed(candidates)))
             };
             return Err(doc.err(
                 key.span(),

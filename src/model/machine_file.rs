@@ -149,11 +149,24 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         }),
     }
 
-    if !chain_given || axes.is_empty() {
+    if !chain_given {
         return Err(doc.err(
             0..0,
             "the machine has no axes: expected `workpiece_chain = [...]` and `tool_chain = \
              [...]` (or [tool_chains]) naming axes defined as [axes.NAME] tables",
+        ));
+    }
+    if workpiece_chain.is_empty() && tool_chains.iter().all(|c| c.axes.is_empty()) {
+        let first_chain = ["workpiece_chain", "tool_chain", "tool_chains"]
+            .iter()
+            .filter_map(|k| root.get_key_value(*k))
+            .map(|(k, _)| k.span())
+            .min_by_key(|s| s.start)
+            .unwrap_or(0..0);
+        return Err(doc.err(
+            first_chain,
+            "the machine has no axes: its chains are all empty; expected axis names defined \
+             as [axes.NAME] tables in `workpiece_chain` or a tool chain",
         ));
     }
     if let Some(i) = used.iter().position(Option::is_none) {
