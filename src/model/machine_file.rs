@@ -1,14 +1,657 @@
-//! Machine files. (Being written on branch model-files; this stub keeps the tree building.)
-use crate::model::Machine;
-use std::path::Path;
+//! Machine files: the axes of a machine, its chains and its tool table (design/model.md,
+//! "Files").
+//!
+//! ```toml
+//! name = "AC trunnion"
+//! workpiece_chain = ["Y", "X", "A", "C"]     # from the bed outward
+//! tool_chain = ["Z"]                         # or [tool_chains] upper = [...], lower = [...]
+//! resolution = { linear = 0.0001, rotary = 0.0001 }
+//!
+//! [axes.X]
+//! kind = "linear"
+//! direction = [-1, 0, 0]
+//! travel = [-442.5, 442.5]
+//!
+//! [axes.A]
+//! kind = "rotary"
+//! direction = [-1, 0, 0]
+//! point = [0, 0, -100]
+//!
+//! [tool]
+//! length = 0.0
+//! lengths = { 1 = 95.3 }
+//! ```
+//!
+//! Beyond the contract, an axis may say which program word drives it (`word = "X"`).
+//! An axis named by one letter is driven by that letter; any other name
+//! (`[A-Z][A-Z0-9]*`, e.g. `X2`) must give its `word`.
+//!
+//! Every problem is reported at its place in the file (`path:line:col: message`).
 
-pub fn parse(_text: &str, path: &str) -> crate::Result<Machine> {
-    Err(crate::Error::Usage(format!(
-        "{path}: machine files are not readable yet"
-    )))
+use super::terms::{is_axis_name, or_list, suggest};
+use super::{Axis, AxisKind, Chain, Machine, Resolution, Tool};
+use crate::{Error, Result};
+use nalgebra::Vector3;
+use std::ops::Range;
+use std::path::Path;
+use toml::Spanned;
+use toml::de::{DeTable, DeValue};
+
+/// The program words that can drive an axis.
+const AXIS_WORDS: &str = "XYZABCUVW";
+
+/// Read and check a machine file.
+pub fn load(path: &Path) -> Result<Machine> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    parse(&text, &path.display().to_string())
 }
 
-pub fn load(path: &Path) -> crate::Result<Machine> {
-    let text = std::fs::read_to_string(path).map_err(|e| crate::Error::io(path, e))?;
-    parse(&text, &path.display().to_string())
+/// Check the machine file `text`; `path` names it in messages.
+pub fn parse(text: &str, path: &str) -> Result<Machine> {
+    let doc = Doc { path, text };
+    let root = doc.parse()?;
+    let root = root.get_ref();
+    doc.check_keys(
+        root,
+        &[
+            "name",
+            "workpiece_chain",
+            "tool_chain",
+            "tool_chains",
+            "resolution",
+            "axes",
+            "tool",
+        ],
+        "the machine file",
+    )?;
+
+    let name = root
+        .get("name")
+        .map(|v| doc.string(v, "`name`").map(str::to_string))
+        .transpose()?;
+    let resolution = match root.get("resolution") {
+        Some(v) => resolution(&doc, v)?,
+        None => Resolution::default(),
+    };
+    let tool = match root.get("tool") {
+        Some(v) => tool(&doc, v)?,
+        None => Tool::default(),
+    };
+
+    // Axes, in file order.
+    let mut axes = Vec::new();
+    let mut axis_keys: Vec<Range<usize>> = Vec::new();
+    if let Some(v) = root.get("axes") {
+        let table = doc.table(v, "`axes`, a table of axes such as [axes.X]")?;
+        for (key, value) in table.iter() {
+            axes.push(axis(&doc, key, value)?);
+            axis_keys.push(key.span());
+        }
+    }
+
+    // Chains: names → indices, each axis in at most one place.
+    let mut used: Vec<Option<String>> = vec![None; axes.len()];
+    // Where each axis is named in its chain.
+    let mut place: Vec<Range<usize>> = vec![0..0; axes.len()];
+    let mut chain_given = false;
+    let workpiece_chain = match root.get_key_value("workpiece_chain") {
+        Some((_, v)) => {
+            chain_given = true;
+            chain(&doc, v, "workpiece_chain", &axes, &mut used, &mut place)?
+        }
+        None => Vec::new(),
+    };
+    let single = root.get_key_value("tool_chain");
+    let named = root.get_key_value("tool_chains");
+    let mut tool_chains = Vec::new();
+    match (single, named) {
+        (Some((k1, _)), Some((k2, _))) => {
+            let second = if k1.span().start > k2.span().start {
+                k1
+            } else {
+                k2
+            };
+            return Err(doc.err(
+                second.span(),
+                "give either `tool_chain = [...]` (one tool chain) or a [tool_chains] table \
+                 (named chains), not both",
+            ));
+        }
+        (Some((_, v)), None) => {
+            chain_given = true;
+            let axes_of = chain(&doc, v, "tool_chain", &axes, &mut used, &mut place)?;
+            tool_chains.push(Chain {
+                name: "tool".to_string(),
+                axes: axes_of,
+            });
+        }
+        (None, Some((_, v))) => {
+            chain_given = true;
+            let table = doc.table(v, "[tool_chains], named chains such as `upper = [\"Z\"]`")?;
+            if table.is_empty() {
+                return Err(doc.err(
+                    v.span(),
+                    "[tool_chains] is empty: expected at least one named chain, such as \
+                     `upper = [\"Z1\", \"X1\"]`",
+                ));
+            }
+            for (key, value) in table.iter() {
+                let what = format!("tool chain `{}`", key.get_ref());
+                tool_chains.push(Chain {
+                    name: key.get_ref().to_string(),
+                    axes: chain(&doc, value, &what, &axes, &mut used, &mut place)?,
+                });
+            }
+        }
+        (None, None) => tool_chains.push(Chain {
+            name: "tool".to_string(),
+            axes: Vec::new(),
+        }),
+    }
+
+    if !chain_given {
+        return Err(doc.err(
+            0..0,
+            "the machine has no axes: expected `workpiece_chain = [...]` and `tool_chain = \
+             [...]` (or [tool_chains]) naming axes defined as [axes.NAME] tables",
+        ));
+    }
+    if workpiece_chain.is_empty() && tool_chains.iter().all(|c| c.axes.is_empty()) {
+        let first_chain = ["workpiece_chain", "tool_chain", "tool_chains"]
+            .iter()
+            .filter_map(|k| root.get_key_value(*k))
+            .map(|(k, _)| k.span())
+            .min_by_key(|s| s.start)
+            .unwrap_or(0..0);
+        return Err(doc.err(
+            first_chain,
+            "the machine has no axes: its chains are all empty; expected axis names defined \
+             as [axes.NAME] tables in `workpiece_chain` or a tool chain",
+        ));
+    }
+    if let Some(i) = used.iter().position(Option::is_none) {
+        return Err(doc.err(
+            axis_keys[i].clone(),
+            format!(
+                "axis {} is defined but in no chain: expected it in `workpiece_chain` or a \
+                 tool chain (or remove its [axes.{}] table)",
+                axes[i].name, axes[i].name
+            ),
+        ));
+    }
+
+    // Program words: unique within the workpiece chain plus any one tool chain.
+    for chain in &tool_chains {
+        let mut seen: Vec<usize> = Vec::new();
+        for &i in workpiece_chain.iter().chain(&chain.axes) {
+            if let Some(&j) = seen.iter().find(|&&j| axes[j].word == axes[i].word) {
+                return Err(doc.err(
+                    place[i].clone(),
+                    format!(
+                        "axes {} and {} are both driven by program word {}{}: expected each \
+                         word at most once in the workpiece chain and a tool chain together \
+                         (give one of them another `word`)",
+                        axes[j].name,
+                        axes[i].name,
+                        axes[i].word,
+                        if tool_chains.len() > 1 {
+                            format!(" (with tool chain `{}`)", chain.name)
+                        } else {
+                            String::new()
+                        }
+                    ),
+                ));
+            }
+            seen.push(i);
+        }
+    }
+
+    Ok(Machine {
+        name,
+        axes,
+        workpiece_chain,
+        tool_chains,
+        resolution,
+        tool,
+    })
+}
+
+fn resolution(doc: &Doc, v: &Spanned<DeValue>) -> Result<Resolution> {
+    let t = doc.table(
+        v,
+        "`resolution`, a table `{ linear = 0.0001, rotary = 0.0001 }`",
+    )?;
+    doc.check_keys(t, &["linear", "rotary"], "`resolution`")?;
+    let mut r = Resolution::default();
+    for (key, slot, unit) in [
+        ("linear", &mut r.linear, "mm"),
+        ("rotary", &mut r.rotary, "degrees"),
+    ] {
+        if let Some(v) = t.get(key) {
+            let x = doc.number(v, &format!("resolution `{key}`"))?;
+            if x <= 0.0 {
+                return Err(doc.err(
+                    v.span(),
+                    format!(
+                        "resolution `{key}` is {x}: expected a positive step in {unit}, such \
+                         as 0.0001"
+                    ),
+                ));
+            }
+            *slot = x;
+        }
+    }
+    Ok(r)
+}
+
+fn tool(doc: &Doc, v: &Spanned<DeValue>) -> Result<Tool> {
+    let t = doc.table(v, "[tool], a table with `length` and `lengths`")?;
+    doc.check_keys(t, &["length", "lengths"], "[tool]")?;
+    let mut tool = Tool::default();
+    if let Some(v) = t.get("length") {
+        tool.length = doc.number(v, "tool `length` (mm)")?;
+    }
+    if let Some(v) = t.get("lengths") {
+        let table = doc.table(
+            v,
+            "tool `lengths`, a table of lengths by H number such as `{ 1 = 95.3 }`",
+        )?;
+        for (key, value) in table.iter() {
+            let h: u32 = key.get_ref().parse().map_err(|_| {
+                doc.err(
+                    key.span(),
+                    format!(
+                        "tool length key `{}`: expected an H number (0, 1, 2, ...)",
+                        key.get_ref()
+                    ),
+                )
+            })?;
+            let length = doc.number(value, &format!("the length of tool H{h} (mm)"))?;
+            tool.lengths.insert(h, length);
+        }
+    }
+    Ok(tool)
+}
+
+fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -> Result<Axis> {
+    let name = key.get_ref().to_string();
+    if !is_axis_name(&name) {
+        return Err(doc.err(
+            key.span(),
+            format!(
+                "axis name `{name}`: expected an uppercase letter followed by uppercase letters \
+                 or digits, such as X or X2"
+            ),
+        ));
+    }
+    let what = format!("[axes.{name}]");
+    let t = doc.table(v, &format!("{what}, a table with `kind` and `direction`"))?;
+    doc.check_keys(
+        t,
+        &[
+            "kind",
+            "word",
+            "direction",
+            "travel",
+            "reference_point",
+            "point",
+            "table_offset",
+        ],
+        &what,
+    )?;
+
+    let kind = match t.get("kind") {
+        None => {
+            return Err(doc.err(
+                v.span(),
+                format!(
+                    "{what} has no `kind`: expected `kind = \"linear\"` or `kind = \"rotary\"`"
+                ),
+            ));
+        }
+        Some(k) => match doc.string(k, "`kind`")? {
+            "linear" => AxisKind::Linear,
+            "rotary" => AxisKind::Rotary,
+            other => {
+                return Err(doc.err(
+                    k.span(),
+                    format!("unknown axis kind `{other}`: expected \"linear\" or \"rotary\""),
+                ));
+            }
+        },
+    };
+
+    let word = match t.get("word") {
+        Some(w) => {
+            let s = doc.string(w, "`word`")?;
+            let mut chars = s.chars();
+            match (chars.next(), chars.next()) {
+                (Some(c), None) if AXIS_WORDS.contains(c) => c,
+                _ => {
+                    return Err(doc.err(
+                        w.span(),
+                        format!(
+                            "`word = \"{s}\"`: expected one program letter, one of X, Y, Z, A, \
+                             B, C, U, V, W"
+                        ),
+                    ));
+                }
+            }
+        }
+        None => {
+            let mut chars = name.chars();
+            match (chars.next(), chars.next()) {
+                (Some(c), None) if AXIS_WORDS.contains(c) => c,
+                (Some(_), None) => {
+                    return Err(doc.err(
+                        key.span(),
+                        format!(
+                            "axis {name}: {name} is not a program axis word; expected `word = \
+                             \"...\"`, one of X, Y, Z, A, B, C, U, V, W"
+                        ),
+                    ));
+                }
+                _ => {
+                    return Err(doc.err(
+                        v.span(),
+                        format!(
+                            "axis {name} has a name longer than one letter: expected `word = \
+                             \"...\"`, the program letter that drives it (e.g. `word = \"{}\"`)",
+                            name.chars().next().unwrap_or('X')
+                        ),
+                    ));
+                }
+            }
+        }
+    };
+
+    let direction = match t.get("direction") {
+        None => {
+            return Err(doc.err(
+                v.span(),
+                format!(
+                    "{what} has no `direction`: expected `direction = [x, y, z]`, the sense of \
+                     motion of the body the axis moves"
+                ),
+            ));
+        }
+        Some(d) => {
+            let dir = doc.vec3(d, "`direction`")?;
+            let n = dir.norm();
+            if n == 0.0 || !n.is_finite() {
+                return Err(doc.err(
+                    d.span(),
+                    "`direction` is the zero vector: expected a non-zero direction such as \
+                     [1, 0, 0]",
+                ));
+            }
+            dir / n
+        }
+    };
+
+    let travel = match t.get("travel") {
+        None => None,
+        Some(tv) => {
+            let unit = match kind {
+                AxisKind::Linear => "mm",
+                AxisKind::Rotary => "degrees",
+            };
+            let what = format!("`travel`, [min, max] in {unit}");
+            let values = doc.numbers(tv, &what)?;
+            if values.len() != 2 {
+                return Err(doc.err(
+                    tv.span(),
+                    format!("{} numbers in {what}: expected two", values.len()),
+                ));
+            }
+            let (lo, hi) = (values[0].0, values[1].0);
+            if lo >= hi {
+                return Err(doc.err(
+                    tv.span(),
+                    format!(
+                        "`travel = [{lo}, {hi}]`: expected min < max (omit `travel` for an \
+                         unlimited or continuous axis)"
+                    ),
+                ));
+            }
+            Some([lo, hi])
+        }
+    };
+
+    let point = match kind {
+        AxisKind::Linear => {
+            if let Some((k, _)) = t.get_key_value("point") {
+                return Err(doc.err(
+                    k.span(),
+                    format!(
+                        "`point` is for rotary axes, and {name} is linear: expected \
+                         `reference_point` (the error reference point) or nothing"
+                    ),
+                ));
+            }
+            match t.get("reference_point") {
+                Some(p) => doc.vec3(p, "`reference_point`")?,
+                None => Vector3::zeros(),
+            }
+        }
+        AxisKind::Rotary => {
+            if let Some((k, _)) = t.get_key_value("reference_point") {
+                return Err(doc.err(
+                    k.span(),
+                    format!(
+                        "`reference_point` is for linear axes, and {name} is rotary: expected \
+                         `point`, a point on its axis line"
+                    ),
+                ));
+            }
+            match t.get("point") {
+                Some(p) => doc.vec3(p, "`point`")?,
+                None => {
+                    return Err(doc.err(
+                        v.span(),
+                        format!(
+                            "rotary axis {name} has no `point`: expected `point = [x, y, z]`, \
+                             a point on its axis line at home, in mm"
+                        ),
+                    ));
+                }
+            }
+        }
+    };
+
+    let table_offset = match t.get("table_offset") {
+        Some(o) => doc.number(o, "`table_offset`")?,
+        None => 0.0,
+    };
+
+    Ok(Axis {
+        name,
+        word,
+        kind,
+        direction,
+        point,
+        travel,
+        table_offset,
+    })
+}
+
+/// A chain: an array of axis names → indices. `used[i]` records where axis i went.
+fn chain(
+    doc: &Doc,
+    v: &Spanned<DeValue>,
+    what: &str,
+    axes: &[Axis],
+    used: &mut [Option<String>],
+    place: &mut [Range<usize>],
+) -> Result<Vec<usize>> {
+    let array = v.get_ref().as_array().ok_or_else(|| {
+        doc.err(
+            v.span(),
+            format!(
+                "{what}: expected an array of axis names such as [\"X\", \"Y\"], found {}",
+                describe(v.get_ref())
+            ),
+        )
+    })?;
+    let mut out = Vec::new();
+    for element in array.iter() {
+        let name = doc.string(element, &format!("an axis name in {what}"))?;
+        let Some(i) = axes.iter().position(|a| a.name == name) else {
+            let names: Vec<String> = axes.iter().map(|a| a.name.clone()).collect();
+            let hint = match suggest(name, names.iter().map(String::as_str)) {
+                Some(s) => format!("; did you mean {s}?"),
+                None if names.is_empty() => "; no axes are defined ([axes.NAME] tables)".into(),
+                None => format!("; the defined axes are {}", names.join(", ")),
+            };
+            return Err(doc.err(
+                element.span(),
+                format!("axis `{name}` in {what} is not defined as [axes.{name}]{hint}"),
+            ));
+        };
+        if let Some(previous) = &used[i] {
+            let again = if previous == what { " again" } else { "" };
+            return Err(doc.err(
+                element.span(),
+                format!(
+                    "axis {name} is named{again} in {what} but is already in {previous}: \
+                     expected each axis in exactly one chain, once"
+                ),
+            ));
+        }
+        used[i] = Some(what.to_string());
+        place[i] = element.span();
+        out.push(i);
+    }
+    Ok(out)
+}
+
+/// "a string", "an integer", ... for messages.
+pub(super) fn describe(v: &DeValue) -> &'static str {
+    match v {
+        DeValue::String(_) => "a string",
+        DeValue::Integer(_) => "an integer",
+        DeValue::Float(_) => "a float",
+        DeValue::Boolean(_) => "a boolean",
+        DeValue::Datetime(_) => "a date-time",
+        DeValue::Array(_) => "an array",
+        DeValue::Table(_) => "a table",
+    }
+}
+
+/// A TOML file being checked: its name and text, and helpers that read spanned values
+/// and turn every problem into a `path:line:col` diagnostic. Shared with the error file.
+pub(super) struct Doc<'t> {
+    pub path: &'t str,
+    pub text: &'t str,
+}
+
+impl<'t> Doc<'t> {
+    pub fn err(&self, span: Range<usize>, message: impl Into<String>) -> Error {
+        Error::at(self.path, self.text.as_bytes(), span.start, message)
+    }
+
+    /// The document, or the TOML syntax error.
+    pub fn parse(&self) -> Result<Spanned<DeTable<'t>>> {
+        DeTable::parse(self.text).map_err(|e| {
+            let at = e.span().unwrap_or(0..0);
+            self.err(at, format!("invalid TOML: {}", e.message().trim_end()))
+        })
+    }
+
+    /// Refuse keys of `table` not in `allowed` (`place` names the table in messages).
+    pub fn check_keys(&self, table: &DeTable, allowed: &[&str], place: &str) -> Result<()> {
+        for key in table.keys() {
+            let k: &str = key.get_ref();
+            if !allowed.contains(&k) {
+                let hint = match suggest(k, allowed.iter().copied()) {
+                    Some(s) => format!("did you mean `{s}`? "),
+                    None => String::new(),
+                };
+                let list: Vec<String> = allowed.iter().map(|a| format!("`{a}`")).collect();
+                return Err(self.err(
+                    key.span(),
+                    format!(
+                        "unknown key `{k}` in {place}: {hint}expected one of {}",
+                        or_list(&list)
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    pub fn table<'v>(&self, v: &'v Spanned<DeValue<'t>>, what: &str) -> Result<&'v DeTable<'t>> {
+        v.get_ref().as_table().ok_or_else(|| {
+            self.err(
+                v.span(),
+                format!("expected {what}, found {}", describe(v.get_ref())),
+            )
+        })
+    }
+
+    pub fn string<'v>(&self, v: &'v Spanned<DeValue<'t>>, what: &str) -> Result<&'v str> {
+        v.get_ref().as_str().ok_or_else(|| {
+            self.err(
+                v.span(),
+                format!("{what}: expected a string, found {}", describe(v.get_ref())),
+            )
+        })
+    }
+
+    /// An integer or a float, finite.
+    pub fn number(&self, v: &Spanned<DeValue>, what: &str) -> Result<f64> {
+        let x = match v.get_ref() {
+            DeValue::Integer(i) => i64::from_str_radix(i.as_str(), i.radix())
+                .map(|i| i as f64)
+                .ok(),
+            DeValue::Float(f) => f.as_str().parse::<f64>().ok(),
+            other => {
+                return Err(self.err(
+                    v.span(),
+                    format!("{what}: expected a number, found {}", describe(other)),
+                ));
+            }
+        };
+        match x {
+            Some(x) if x.is_finite() => Ok(x),
+            _ => Err(self.err(
+                v.span(),
+                format!(
+                    "{what}: `{}` is not a finite number: expected a finite number",
+                    &self.text[v.span()]
+                ),
+            )),
+        }
+    }
+
+    /// An array of finite numbers, each with its span.
+    pub fn numbers(&self, v: &Spanned<DeValue>, what: &str) -> Result<Vec<(f64, Range<usize>)>> {
+        let array = v.get_ref().as_array().ok_or_else(|| {
+            self.err(
+                v.span(),
+                format!(
+                    "{what}: expected an array of numbers, found {}",
+                    describe(v.get_ref())
+                ),
+            )
+        })?;
+        array
+            .iter()
+            .map(|e| Ok((self.number(e, &format!("an element of {what}"))?, e.span())))
+            .collect()
+    }
+
+    pub fn vec3(&self, v: &Spanned<DeValue>, what: &str) -> Result<Vector3<f64>> {
+        let values = self.numbers(v, what)?;
+        if values.len() != 3 {
+            return Err(self.err(
+                v.span(),
+                format!(
+                    "{what} has {} numbers: expected three, [x, y, z]",
+                    values.len()
+                ),
+            ));
+        }
+        Ok(Vector3::new(values[0].0, values[1].0, values[2].0))
+    }
 }
