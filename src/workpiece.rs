@@ -106,7 +106,7 @@ impl FeatureWorkpiece {
             let corners = [(-h, -h), (h, -h), (h, h), (-h, h), (-h, -h)];
             for (x, y) in corners {
                 points.push(PathPoint {
-                    tip: Vector3::new(x, y, level - r),
+                    tip: Vector3::new(x, y, level),
                     dir: z,
                     rapid: false,
                 });
@@ -139,7 +139,7 @@ impl FeatureWorkpiece {
                 });
             }
         }
-        with_approach("wedge (3+2 at A = 10°)", points)
+        with_approach("wedge: 3+2, tool tilted 10 deg", points)
     }
 
     /// Rings around the tilted cone, tool normal to its surface: A and C move together.
@@ -165,7 +165,7 @@ impl FeatureWorkpiece {
                 });
             }
         }
-        with_approach("tilted cone (five axes)", points)
+        with_approach("tilted cone: five axes at once", points)
     }
 
     /// The cylinder, cut by C alone: the tool tilted 10° away from the cylinder's axis, the
@@ -186,7 +186,7 @@ impl FeatureWorkpiece {
                 rapid: false,
             });
         }
-        with_approach("cylinder (C alone at A = 10°)", points)
+        with_approach("cylinder: C alone, tool tilted 10 deg", points)
     }
 }
 
@@ -300,7 +300,7 @@ pub fn to_program(
     block(&mut out, &format!("T{} M6", style.tool));
     block(&mut out, &format!("G43 H{}", style.tool));
     block(&mut out, &format!("S{} M3", style.spindle));
-    let mut previous = vec![0.0; n];
+    let mut previous: Vec<f64> = vec![0.0; n];
     let mut written: Vec<Option<String>> = vec![None; n];
     let mut feed_written = false;
     let mut rapid_mode = None;
@@ -311,6 +311,15 @@ pub fn to_program(
                 p: point.tip,
                 o: point.dir.normalize(),
             };
+            if index == 0 {
+                // A new operation starts from a clear position: unwind continuous rotary
+                // axes so their values stay near the usual range.
+                for &k in &rotary {
+                    if machine.axes[kin.axes()[k]].travel.is_none() {
+                        previous[k] = (previous[k] + 180.0).rem_euclid(360.0) - 180.0;
+                    }
+                }
+            }
             let mut best: Option<Vec<f64>> = None;
             let guesses = std::iter::once(previous.clone()).chain(if index == 0 {
                 grid.clone()
