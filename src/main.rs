@@ -57,6 +57,10 @@ struct CompensateArgs {
     /// machine file's first by default.
     #[arg(long, value_name = "NAME")]
     tool_chain: Option<String>,
+    /// Axes that keep their programmed values, comma-separated (e.g. `C` for a lathe
+    /// spindle that turns rather than positions). Other axes take up the correction.
+    #[arg(long, value_name = "AXES", value_delimiter = ',')]
+    hold: Vec<String>,
     /// Write blocks whose compensated values leave the travel limits anyway, with a
     /// warning (by default such a block is an error).
     #[arg(long)]
@@ -101,6 +105,7 @@ fn compensate(args: &CompensateArgs) -> nccomp::Result<()> {
     let options = Options {
         tool_chain: args.tool_chain.clone(),
         allow_limit_violations: args.allow_limit_violations,
+        hold: args.hold.clone(),
         ..Options::default()
     };
     let comp = Compensator::new(&machine, &errors, options)?;

@@ -120,6 +120,7 @@ fn zero_model_is_the_identity() {
     let sol = kin.compensate(
         &[10.0, 20.0, 30.0, -45.0, 100.0],
         0.0,
+        0,
         &SolveOptions::default(),
     );
     assert_eq!(sol.values(), &[10.0, 20.0, 30.0, -45.0, 100.0]);
@@ -130,7 +131,7 @@ fn check_lands(machine: &nccomp::model::Machine, seed: u64, q: [f64; 5], length:
     let errors = random_errors(machine, &mut Lcg(seed));
     let kin = Kinematics::new(machine, &errors, 0).unwrap();
     let opts = SolveOptions::default();
-    let sol = kin.compensate(&q, length, &opts);
+    let sol = kin.compensate(&q, length, 0, &opts);
     let (target, _) = kin.pose(Model::Nominal, &q, length);
     let (reached, _) = kin.pose(Model::Actual, sol.values(), length);
     let (dp, dd) = reached.deviation(&target);
@@ -194,7 +195,7 @@ proptest! {
         let machine = trunnion();
         let kin = Kinematics::new(&machine, &ErrorModel::zero(&machine), 0).unwrap();
         let q = [x, y, z, a, c];
-        let sol = kin.compensate(&q, 0.0, &SolveOptions::default());
+        let sol = kin.compensate(&q, 0.0, 0, &SolveOptions::default());
         prop_assert_eq!(sol.values(), &q[..]);
     }
 }
@@ -207,7 +208,7 @@ fn singular_pose_holds_the_free_axis() {
         check_lands(&machine, 5, q, 0.0);
         let errors = random_errors(&machine, &mut Lcg(5));
         let kin = Kinematics::new(&machine, &errors, 0).unwrap();
-        let sol = kin.compensate(&q, 0.0, &SolveOptions::default());
+        let sol = kin.compensate(&q, 0.0, 0, &SolveOptions::default());
         assert_eq!(sol.held, 1 << 4, "C is held at A = {a}");
         assert_eq!(sol.q[4], 73.0);
     }
@@ -217,6 +218,7 @@ fn singular_pose_holds_the_free_axis() {
     let sol = kin.compensate(
         &[50.0, -30.0, 20.0, 3.5, 73.0],
         0.0,
+        0,
         &SolveOptions::default(),
     );
     assert_eq!(sol.held, 0);

@@ -33,6 +33,9 @@ pub struct Options {
     pub max_correction: (f64, f64),
     /// Stop after this many refused blocks.
     pub max_errors: usize,
+    /// Axes (by name or program letter) that keep their programmed values: not positioned
+    /// by the program (a lathe spindle C while turning) or not to be touched.
+    pub hold: Vec<String>,
 }
 
 impl Default for Options {
@@ -43,6 +46,7 @@ impl Default for Options {
             allow_limit_violations: false,
             max_correction: (10.0, 2.0),
             max_errors: 20,
+            hold: Vec::new(),
         }
     }
 }
@@ -57,6 +61,8 @@ pub struct Compensator<'m> {
     /// Variable driven by each letter A..Z.
     var_of_letter: [Option<usize>; 26],
     decimals: (u8, u8),
+    /// Bit k: variable k is held (`Options::hold`).
+    hold: u32,
 }
 
 /// The program's modal state as the pass follows it.
@@ -109,7 +115,24 @@ impl<'m> Compensator<'m> {
                 var_of_letter[(letter as u8 - b'A') as usize] = Some(var);
             }
         }
+        let mut hold = 0;
+        for name in &options.hold {
+            let var = kin.axes().iter().position(|&i| {
+                let axis = &machine.axes[i];
+                axis.name.eq_ignore_ascii_case(name)
+                    || axis.word.to_string().eq_ignore_ascii_case(name)
+            });
+            match var {
+                Some(v) => hold |= 1 << v,
+                None => {
+                    return Err(Error::Usage(format!(
+                        "cannot hold axis `{name}`: the active chains have no such axis"
+                    )));
+                }
+            }
+        }
         Ok(Compensator {
+            hold,
             machine,
             kin,
             zero_model: errors.is_zero(),
@@ -459,9 +482,12 @@ impl<'m> Compensator<'m> {
                 };
             }
         }
-        let sol = self
-            .kin
-            .compensate(&state.nominal[..n], state.length, &self.options.solve);
+        let sol = self.kin.compensate(
+            &state.nominal[..n],
+            state.length,
+            self.hold,
+            &self.options.solve,
+        );
         summary.motion_blocks += 1;
         // Guard against a model or pose that turns microns into a big move.
         for v in 0..n {
@@ -634,12 +660,11 @@ impl<'m> Compensator<'m> {
             TokenKind::Word(w) => Some(w.lowercase),
             _ => None,
         }) == Some(true);
-        // Words separated by spaces get a space; packed blocks (G1X10Y5) stay packed.
-        let spaced = tokens.windows(3).any(|w| {
-            matches!(w[0].kind, TokenKind::Word(_))
-                && w[1].kind == TokenKind::Space
-                && matches!(w[2].kind, TokenKind::Word(_))
+        // Packed blocks (G1X10Y5) stay packed; otherwise words get a space between them.
+        let packed = tokens.windows(2).any(|w| {
+            matches!(w[0].kind, TokenKind::Word(_)) && matches!(w[1].kind, TokenKind::Word(_))
         });
+        let spaced = !packed;
         let letter = if lowercase {
             self.letter(v).to_ascii_lowercase()
         } else {

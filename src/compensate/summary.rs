@@ -105,8 +105,15 @@ impl fmt::Display for Summary {
             "{} lines, {} motion blocks compensated: {} words changed, {} words added",
             self.lines, self.motion_blocks, self.words_changed, self.words_added
         )?;
-        let um = |e: Extreme| format!("{:.3} µm (line {})", e.value * 1e3, e.line);
-        let urad = |e: Extreme| format!("{:.2} µrad (line {})", e.value * 1e6, e.line);
+        let at = |e: Extreme| {
+            if e.line == 0 {
+                String::new()
+            } else {
+                format!(" (line {})", e.line)
+            }
+        };
+        let um = |e: Extreme| format!("{:.3} µm{}", e.value * 1e3, at(e));
+        let urad = |e: Extreme| format!("{:.2} µrad{}", e.value * 1e6, at(e));
         writeln!(
             f,
             "predicted tip error:       before {}, after {}",

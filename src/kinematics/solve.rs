@@ -71,10 +71,18 @@ fn tangent_basis(o: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
 
 impl Kinematics {
     /// Compensate one pose: the axis values at which the machine with its errors reaches
-    /// the pose the nominal machine reaches at `q`, with a tool of length `length`.
-    pub fn compensate(&self, q: &[f64], length: f64, options: &SolveOptions) -> Solution {
+    /// the pose the nominal machine reaches at `q`, with a tool of length `length`. The
+    /// variables whose bits are set in `hold` keep their values (and so do rotary axes at a
+    /// singular pose).
+    pub fn compensate(
+        &self,
+        q: &[f64],
+        length: f64,
+        hold: u32,
+        options: &SolveOptions,
+    ) -> Solution {
         let (target, jac) = self.pose_and_jacobian(Model::Nominal, q, length);
-        let held = self.singular_axes(&target, &jac, options.singular_angle);
+        let held = hold | self.singular_axes(&target, &jac, options.singular_angle);
         self.solve(Model::Actual, &target, q, length, held, options)
     }
 
