@@ -50,24 +50,24 @@ pub fn classify(code10: i64) -> GCode {
         // lathe radius mode.
         170 | 171 | 180 | 181 | 190 | 191 | 400 | 610 | 611 | 640 | 150 | 500 | 690 | 901 | 911
         | 930 | 940 | 950 | 960 | 970 | 980 | 990 | 80 => Harmless,
-        50..=53 => Unsupported("splines (G5.x)"),
+        50..=53 => Unsupported("spline interpolation (G5.x)"),
         70 => Unsupported("lathe diameter mode (G7)"),
         100 => Unsupported("data setting (G10)"),
         280 | 281 | 300 | 301 => Unsupported("return to a reference point (G28/G30)"),
         330 | 331 => Unsupported("threading (G33)"),
-        380..=389 => Unsupported("probing moves (G38.x)"),
+        380..=389 => Unsupported("probing (G38.x)"),
         410 | 411 | 420 | 421 => Unsupported("cutter radius compensation (G41/G42)"),
-        431 | 432 => Unsupported("dynamic tool length offsets (G43.1/G43.2)"),
-        434 | 435 => Unsupported("tool-centre-point programs (G43.4/G43.5)"),
-        520 => Unsupported("local coordinate offsets (G52)"),
-        530 => Unsupported("machine-coordinate moves (G53)"),
-        541 => Unsupported("extended work offsets (G54.1)"),
+        431 | 432 => Unsupported("a dynamic tool length offset (G43.1/G43.2)"),
+        434 | 435 => Unsupported("tool-centre-point control (G43.4/G43.5)"),
+        520 => Unsupported("a local coordinate offset (G52)"),
+        530 => Unsupported("a machine-coordinate move (G53)"),
+        541 => Unsupported("an extended work offset (G54.1)"),
         680..=689 => Unsupported("coordinate rotation (G68)"),
-        160 => Unsupported("polar coordinates (G16)"),
-        510 | 511 => Unsupported("scaling and mirroring (G51)"),
-        730 | 740 | 760 | 810..=899 => Unsupported("canned cycles"),
+        160 => Unsupported("polar coordinate programming (G16)"),
+        510 | 511 => Unsupported("scaling or mirroring (G51)"),
+        730 | 740 | 760 | 810..=899 => Unsupported("a canned cycle"),
         910 => Unsupported("incremental distance mode (G91)"),
-        920..=923 => Unsupported("coordinate system offsets (G92)"),
+        920..=923 => Unsupported("a coordinate system offset (G92)"),
         _ => Unsupported("this G code"),
     }
 }
@@ -75,7 +75,7 @@ pub fn classify(code10: i64) -> GCode {
 /// M codes the pass refuses: program flow it cannot follow.
 pub fn unsupported_m(code10: i64) -> Option<&'static str> {
     match code10 {
-        970 | 980 | 990 => Some("subprogram calls and returns (M97/M98/M99)"),
+        970 | 980 | 990 => Some("a subprogram call or return (M97/M98/M99)"),
         _ => None,
     }
 }

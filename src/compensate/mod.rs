@@ -313,7 +313,7 @@ impl<'m> Compensator<'m> {
                                 if what == "this G code" {
                                     "is not known to nccomp"
                                 } else {
-                                    "are not supported"
+                                    "is not supported"
                                 }
                             ),
                         ));
@@ -348,7 +348,7 @@ impl<'m> Compensator<'m> {
                         return Err(at(
                             t.span.start,
                             format!(
-                                "{} cannot be compensated: {what} are not supported",
+                                "{} cannot be compensated: {what} is not supported",
                                 code_text(line.content, t)
                             ),
                         ));
@@ -607,17 +607,11 @@ impl<'m> Compensator<'m> {
             }
         }
         // What the block does before and after, as the model predicts it.
-        let (target, _) = self
-            .kin
-            .pose(Model::Nominal, &state.nominal[..n], state.length);
-        let (before, _) = self
-            .kin
-            .pose(Model::Actual, &state.nominal[..n], state.length);
         let (after, beyond) = self
             .kin
             .pose(Model::Actual, &state.emitted[..n], state.length);
-        let (bp, bd) = before.deviation(&target);
-        let (ap, ad) = after.deviation(&target);
+        let (bp, bd) = (sol.start_position_error, sol.start_direction_error);
+        let (ap, ad) = after.deviation(&sol.target);
         summary.record(line.number, bp, bd, ap, ad, sol.held != 0, beyond);
         if sol.held != 0 {
             for v in 0..n {

@@ -53,6 +53,8 @@ pub struct Jacobian {
     pub do_: [Vector3<f64>; MAX_AXES],
     /// Rotary axes: unit direction of the axis line in the workpiece frame; zero for linear.
     pub axis_dir: [Vector3<f64>; MAX_AXES],
+    /// Whether an error table was read beyond its ends.
+    pub beyond: bool,
 }
 
 #[derive(Debug, Clone)]
@@ -309,6 +311,7 @@ impl Kinematics {
             dp: [Vector3::zeros(); MAX_AXES],
             do_: [Vector3::zeros(); MAX_AXES],
             axis_dir: [Vector3::zeros(); MAX_AXES],
+            beyond,
         };
         for (k, &(kind, dir, point, sign)) in frames.iter().enumerate().take(self.axes.len()) {
             match kind {

@@ -45,6 +45,12 @@ pub struct Solution {
     /// Remaining tip distance (mm) and direction angle (rad) to the target.
     pub position_residual: f64,
     pub direction_residual: f64,
+    /// Tip distance (mm) and direction angle (rad) at the start values: the error
+    /// without compensation when starting from the programmed values.
+    pub start_position_error: f64,
+    pub start_direction_error: f64,
+    /// The pose solved for.
+    pub target: Pose,
     pub iterations: usize,
     /// Bit k set: variable k was held at its start value (singular rotary axis).
     pub held: u32,
@@ -103,6 +109,9 @@ impl Kinematics {
 
     /// Solve `model`'s axis values to reach `target`, starting from `start`, holding the
     /// variables whose bits are set in `held`.
+    ///
+    /// The Jacobian is taken once at the start and reused (the pose changes by microns, so
+    /// it hardly changes); it is refreshed only if the iteration drags on.
     pub fn solve(
         &self,
         model: Model,
@@ -116,47 +125,51 @@ impl Kinematics {
         let mut q = [0.0; MAX_AXES];
         q[..n].copy_from_slice(&start[..n]);
         let (b1, b2) = tangent_basis(&target.o);
-        let free: Vec<usize> = (0..n).filter(|k| held & (1 << k) == 0).collect();
+        let mut free = [0usize; MAX_AXES];
+        let mut m = 0;
+        for k in (0..n).filter(|k| held & (1 << k) == 0) {
+            free[m] = k;
+            m += 1;
+        }
+        let free = &free[..m];
+        let (mut pose, mut jac) = self.pose_and_jacobian(model, &q[..n], length);
+        let mut beyond = jac.beyond;
+        let (start_position_error, start_direction_error) = pose.deviation(target);
         let mut iterations = 0;
         loop {
-            let (pose, jac) = self.pose_and_jacobian(model, &q[..n], length);
             let rp = pose.p - target.p;
             let rd = [b1.dot(&pose.o), b2.dot(&pose.o)];
             let done = rp.norm() <= options.position_tolerance
                 && angle_between(&pose.o, &target.o) <= options.angle_tolerance;
             if done || iterations >= options.max_iterations {
-                return self.finish(model, target, q, length, held, iterations);
+                break;
             }
             iterations += 1;
-            let step = newton_step(&jac, &free, &rp, &rd, &b1, &b2);
+            let step = newton_step(&jac, free, &rp, &rd, &b1, &b2);
             let mut biggest: f64 = 0.0;
             for (i, &k) in free.iter().enumerate() {
                 q[k] -= step[i];
                 biggest = biggest.max(step[i].abs());
             }
+            if iterations % 4 == 0 {
+                (pose, jac) = self.pose_and_jacobian(model, &q[..n], length);
+                beyond = jac.beyond;
+            } else {
+                (pose, beyond) = self.pose(model, &q[..n], length);
+            }
             if biggest < 1e-13 {
-                return self.finish(model, target, q, length, held, iterations);
+                break;
             }
         }
-    }
-
-    fn finish(
-        &self,
-        model: Model,
-        target: &Pose,
-        q: [f64; MAX_AXES],
-        length: f64,
-        held: u32,
-        iterations: usize,
-    ) -> Solution {
-        let n = self.len();
-        let (pose, beyond) = self.pose(model, &q[..n], length);
         let (position_residual, direction_residual) = pose.deviation(target);
         Solution {
             q,
             n,
             position_residual,
             direction_residual,
+            start_position_error,
+            start_direction_error,
+            target: *target,
             iterations,
             held,
             beyond,
@@ -173,8 +186,9 @@ fn newton_step(
     rd: &[f64; 2],
     b1: &Vector3<f64>,
     b2: &Vector3<f64>,
-) -> Vec<f64> {
+) -> [f64; MAX_AXES] {
     let m = free.len();
+    let mut out = [0.0; MAX_AXES];
     let row = |i: usize, k: usize| match i {
         0..=2 => jac.dp[k][i],
         3 => b1.dot(&jac.do_[k]),
@@ -186,7 +200,8 @@ fn newton_step(
         if let Some(x) = a.lu().solve(&Vector5::from_column_slice(&r))
             && x.iter().all(|v| v.is_finite())
         {
-            return x.iter().copied().collect();
+            out[..5].copy_from_slice(x.as_slice());
+            return out;
         }
     }
     // Position as a hard constraint: Δ = Jp⁺·rp + N·z, N projecting onto Jp's null space,
@@ -206,7 +221,8 @@ fn newton_step(
     let rest = DVector::from_column_slice(&r[3..]) - &jd * &d0;
     let z = pinv(&a) * rest;
     let d = d0 + null * z;
-    d.iter().copied().collect()
+    out[..m].copy_from_slice(d.as_slice());
+    out
 }
 
 impl Kinematics {

@@ -1,0 +1,59 @@
+//! The compensated reference programs, pinned: any change to the numbers nccomp writes
+//! for the shipped fixtures shows up here as a reviewable diff.
+
+use nccomp::compensate::{Compensator, Options};
+use nccomp::model::{error_file, machine_file};
+use std::path::Path;
+
+fn compensate(machine: &str, program: &str, options: Options) -> String {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let m = machine_file::load(&root.join(format!("{machine}.machine.toml"))).unwrap();
+    let e = error_file::load(&root.join(format!("{machine}.errors.toml")), &m).unwrap();
+    let src = std::fs::read(root.join(format!("{program}.nc"))).unwrap();
+    let comp = Compensator::new(&m, &e, options).unwrap();
+    let mut out = Vec::new();
+    let summary = comp.run(&src, &format!("{program}.nc"), &mut out).unwrap();
+    format!("{summary}\n----\n{}", String::from_utf8(out).unwrap())
+}
+
+#[test]
+fn feature_workpiece_on_the_ac_trunnion() {
+    insta::assert_snapshot!(compensate(
+        "ac_trunnion",
+        "feature_workpiece",
+        Options::default()
+    ));
+}
+
+#[test]
+fn bc_trunnion_demo() {
+    insta::assert_snapshot!(compensate(
+        "bc_trunnion",
+        "bc_trunnion_demo",
+        Options::default()
+    ));
+}
+
+#[test]
+fn head_head_demo() {
+    insta::assert_snapshot!(compensate(
+        "head_head",
+        "head_head_demo",
+        Options::default()
+    ));
+}
+
+#[test]
+fn grinder_demo() {
+    insta::assert_snapshot!(compensate("grinder", "grinder_demo", Options::default()));
+}
+
+#[test]
+fn mill_turn_demo_upper_turret() {
+    let options = Options {
+        tool_chain: Some("upper".into()),
+        hold: vec!["C".into()],
+        ..Options::default()
+    };
+    insta::assert_snapshot!(compensate("mill_turn", "mill_turn_demo", options));
+}
