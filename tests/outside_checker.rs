@@ -1,0 +1,59 @@
+//! The independent outside checker (`tools/checker.py`) against the nccomp binary.
+//!
+//! The checker implements the machine and error model of the contract
+//! (`model.md`) on its own, in pure Python, from the contract's text only. Here it
+//! generates random AC trunnion machines, error files and five-axis programs, runs this
+//! crate's `nccomp compensate` on them and evaluates every programmed pose of the result
+//! with its own model: a misreading of the contract on either side shows up as a
+//! residual. Skipped (with a note) where no Python 3.11+ is available.
+
+use std::path::Path;
+use std::process::Command;
+
+/// Seeds and program length: 12 programs of 200 blocks keep the test at a few seconds
+/// with a debug build of nccomp.
+const SEEDS: &str = "1-12";
+const BLOCKS: &str = "200";
+
+fn python() -> Option<&'static str> {
+    // tomllib is the only part of the standard library the checker needs from 3.11 on.
+    let probe = Command::new("python3")
+        .args(["-c", "import tomllib"])
+        .output()
+        .ok()?;
+    probe.status.success().then_some("python3")
+}
+
+#[test]
+fn outside_checker_roundtrip_passes() {
+    let Some(python) = python() else {
+        eprintln!("note: python3 (3.11 or newer) not found: outside checker test skipped");
+        return;
+    };
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let output = Command::new(python)
+        .arg(root.join("tools").join("checker.py"))
+        .args([
+            "roundtrip",
+            "--seeds",
+            SEEDS,
+            "--blocks",
+            BLOCKS,
+            "--nccomp",
+        ])
+        .arg(env!("CARGO_BIN_EXE_nccomp"))
+        .current_dir(root)
+        .output()
+        .expect("run tools/checker.py");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    println!("{stdout}");
+    if !stderr.is_empty() {
+        eprintln!("{stderr}");
+    }
+    assert!(
+        output.status.success(),
+        "the outside checker rejects nccomp's output ({}):\n{stdout}\n{stderr}",
+        output.status
+    );
+}
