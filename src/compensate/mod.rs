@@ -13,7 +13,7 @@ pub use summary::{Extreme, Summary};
 use crate::diag::{Diagnostic, Error};
 use crate::kinematics::{Kinematics, MAX_AXES, Model, SolveOptions};
 use crate::model::{AxisKind, ErrorModel, Machine};
-use crate::nc::number::{decimals_for, write_fixed};
+use crate::nc::number::{decimals_for, same_text, write_fixed};
 use crate::nc::{self, Token, TokenKind, Value};
 use gcodes::GCode;
 
@@ -515,7 +515,6 @@ impl<'m> Compensator<'m> {
             }
         }
         // Rewrite present words, add missing ones.
-        let mut scratch = String::new();
         for v in 0..n {
             let to_units = |x: f64| {
                 if state.inch && self.is_linear(v) {
@@ -547,18 +546,15 @@ impl<'m> Compensator<'m> {
                     };
                     let d = decimals.max(self.res_decimals(v, state.inch));
                     state.decimals[v] = d;
-                    scratch.clear();
-                    write_fixed(old, d, &mut scratch);
-                    let old_text = scratch.clone();
-                    scratch.clear();
-                    write_fixed(value, d, &mut scratch);
-                    if scratch == old_text {
+                    if same_text(old, value, d) {
                         state.emitted[v] = from_units(old);
                     } else {
-                        state.emitted[v] = from_units(scratch.parse().unwrap_or(value));
+                        let mut text = String::new();
+                        write_fixed(value, d, &mut text);
+                        state.emitted[v] = from_units(text.parse().unwrap_or(value));
                         edits.push(Edit {
                             at: w.value_span.clone(),
-                            text: scratch.clone(),
+                            text,
                         });
                         summary.words_changed += 1;
                     }
@@ -566,14 +562,11 @@ impl<'m> Compensator<'m> {
                 }
                 None => {
                     let d = state.decimals[v].max(self.res_decimals(v, state.inch));
-                    scratch.clear();
-                    write_fixed(to_units(state.emitted[v]), d, &mut scratch);
-                    let old_text = scratch.clone();
-                    scratch.clear();
-                    write_fixed(value, d, &mut scratch);
-                    if scratch != old_text {
-                        state.emitted[v] = from_units(scratch.parse().unwrap_or(value));
-                        edits.push(self.insertion(tokens, &axis_words, v, &scratch));
+                    if !same_text(to_units(state.emitted[v]), value, d) {
+                        let mut text = String::new();
+                        write_fixed(value, d, &mut text);
+                        state.emitted[v] = from_units(text.parse().unwrap_or(value));
+                        edits.push(self.insertion(line.content, tokens, &axis_words, v, &text));
                         summary.words_added += 1;
                         if state.programmed & (1 << v) == 0 {
                             summary.note_assumed_home(self.axis_name(v), line.number);
@@ -631,9 +624,11 @@ impl<'m> Compensator<'m> {
     }
 
     /// Where and how to add a word for variable `v` to a block that lacks it: in the
-    /// machine's axis order among the block's axis words, in the block's own style.
+    /// machine's axis order among the block's axis words, in the style of its neighbour
+    /// (letter case, a space between letter and number, spaces between words).
     fn insertion(
         &self,
+        content: &[u8],
         tokens: &[Token],
         axis_words: &[Option<usize>; MAX_AXES],
         v: usize,
@@ -650,22 +645,29 @@ impl<'m> Compensator<'m> {
         let after = present()
             .filter(|&(var, _)| order(var) < mine)
             .max_by_key(|&(var, _)| order(var));
-        let lowercase = tokens.iter().find_map(|t| match &t.kind {
-            TokenKind::Word(w) => Some(w.lowercase),
-            _ => None,
-        }) == Some(true);
+        let before = present()
+            .filter(|&(var, _)| order(var) > mine)
+            .min_by_key(|&(var, _)| order(var));
+        // A block with axis words always has a neighbour.
+        let neighbour = after.or(before).map_or(0, |(_, i)| i);
+        let (lowercase, gap) = match &tokens[neighbour].kind {
+            TokenKind::Word(w) => (
+                w.lowercase,
+                &content[tokens[neighbour].span.start + 1..w.value_span.start],
+            ),
+            _ => (false, &content[0..0]),
+        };
         // Packed blocks (G1X10Y5) stay packed; otherwise words get a space between them.
         let packed = tokens.windows(2).any(|w| {
             matches!(w[0].kind, TokenKind::Word(_)) && matches!(w[1].kind, TokenKind::Word(_))
         });
-        let spaced = !packed;
+        let sep = if packed { "" } else { " " };
         let letter = if lowercase {
             self.letter(v).to_ascii_lowercase()
         } else {
             self.letter(v)
         } as char;
-        let word = format!("{letter}{number}");
-        let sep = if spaced { " " } else { "" };
+        let word = format!("{letter}{}{number}", String::from_utf8_lossy(gap));
         match after {
             Some((_, i)) => {
                 let end = tokens[i].span.end;
@@ -675,11 +677,7 @@ impl<'m> Compensator<'m> {
                 }
             }
             None => {
-                let first = present()
-                    .min_by_key(|&(var, _)| order(var))
-                    .map(|(_, i)| i)
-                    .unwrap_or(0);
-                let start = tokens[first].span.start;
+                let start = tokens[neighbour].span.start;
                 Edit {
                     at: start..start,
                     text: format!("{word}{sep}"),

@@ -16,9 +16,56 @@ pub fn decimals_for(step: f64) -> u8 {
     d
 }
 
+/// `value · 10^decimals` rounded to an integer, when that is certainly what `{:.decimals}`
+/// prints: `None` for values too large, not finite, or within a hair of a rounding tie
+/// (std's exact algorithm decides those).
+pub fn scaled(value: f64, decimals: u8) -> Option<i64> {
+    const POW10: [f64; 13] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12,
+    ];
+    let x = value * *POW10.get(usize::from(decimals))?;
+    if !(x.abs() < 1e14) {
+        return None;
+    }
+    let r = x.round();
+    ((x - r).abs() < 0.5 - 1e-6).then_some(r as i64)
+}
+
+/// Whether two values print the same with `decimals` digits after the point.
+pub fn same_text(a: f64, b: f64, decimals: u8) -> bool {
+    match (scaled(a, decimals), scaled(b, decimals)) {
+        (Some(x), Some(y)) => x == y,
+        _ => fixed(a, decimals) == fixed(b, decimals),
+    }
+}
+
 /// Append `value` with exactly `decimals` digits after the point (no point for 0) and never
 /// a negative zero.
 pub fn write_fixed(value: f64, decimals: u8, out: &mut String) {
+    // Hot path: integer digits, no float formatting (which is slow for fixed precision).
+    if let Some(n) = scaled(value, decimals) {
+        if n < 0 {
+            out.push('-');
+        }
+        let digits = n.unsigned_abs().to_string();
+        let d = usize::from(decimals);
+        if digits.len() <= d {
+            out.push('0');
+            if d > 0 {
+                out.push('.');
+                out.extend(std::iter::repeat_n('0', d - digits.len()));
+            }
+            out.push_str(&digits);
+        } else {
+            let split = digits.len() - d;
+            out.push_str(&digits[..split]);
+            if d > 0 {
+                out.push('.');
+                out.push_str(&digits[split..]);
+            }
+        }
+        return;
+    }
     let start = out.len();
     let _ = write!(out, "{:.*}", usize::from(decimals), value);
     if out.as_bytes()[start] == b'-'
@@ -57,5 +104,27 @@ mod tests {
         assert_eq!(fixed(12.5, 3), "12.500");
         assert_eq!(fixed(-3.0, 0), "-3");
         assert_eq!(fixed(-0.4, 0), "0");
+        assert_eq!(fixed(0.05, 4), "0.0500");
+        assert_eq!(fixed(-0.05, 1), "-0.1");
+        assert_eq!(fixed(123456.78901, 4), "123456.7890");
+        assert_eq!(fixed(1e300, 2).len(), 304);
+        assert_eq!(fixed(f64::NAN, 2), "NaN");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn fast_path_prints_what_std_prints(v in -1e6..1e6f64, d in 0u8..8) {
+            let mut std = format!("{:.*}", usize::from(d), v);
+            if std.starts_with('-') && std[1..].bytes().all(|b| b == b'0' || b == b'.') {
+                std.remove(0);
+            }
+            proptest::prop_assert_eq!(fixed(v, d), std);
+        }
+
+        #[test]
+        fn same_text_agrees_with_strings(a in -1e4..1e4f64, delta in -1e-3..1e-3f64, d in 0u8..6) {
+            let b = a + delta;
+            proptest::prop_assert_eq!(same_text(a, b, d), fixed(a, d) == fixed(b, d));
+        }
     }
 }
