@@ -92,6 +92,12 @@ fn compensate(args: &CompensateArgs) -> nccomp::Result<()> {
     let machine = machine_file::load(&args.machine)?;
     let errors = error_file::load(&args.errors, &machine)?;
     let (src, name) = if is_std(&args.input) {
+        use std::io::IsTerminal;
+        if std::io::stdin().is_terminal() {
+            eprintln!(
+                "nccomp: reading the program from standard input (end with Ctrl-D; see --help)"
+            );
+        }
         let mut buf = Vec::new();
         std::io::stdin()
             .read_to_end(&mut buf)
@@ -135,10 +141,29 @@ fn write_atomically(path: &Path, bytes: &[u8]) -> nccomp::Result<()> {
         _ => Path::new("."),
     };
     let io = |e| nccomp::Error::io(path, e);
+    if !dir.is_dir() {
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::NotFound,
+            format!(
+                "cannot write the output: directory {} does not exist",
+                dir.display()
+            ),
+        )));
+    }
+    // tempfile's own error names the temporary path, which means nothing to the user.
     let mut tmp = tempfile::Builder::new()
         .prefix(".nccomp-")
         .tempfile_in(dir)
-        .map_err(io)?;
+        .map_err(|e| {
+            io(std::io::Error::new(
+                e.kind(),
+                format!(
+                    "cannot create the output file in {}: {}",
+                    dir.display(),
+                    e.kind()
+                ),
+            ))
+        })?;
     tmp.write_all(bytes).map_err(io)?;
     // A temporary file is private (0600); the program should look like any other file the
     // user writes, or keep the permissions of the file it replaces.

@@ -230,3 +230,83 @@ fn inch_programs_are_compensated_in_inch() {
     let value: f64 = x[1..].parse().unwrap();
     assert!((value - 4.0).abs() < 0.01 && value != 4.0, "{out}");
 }
+
+fn compensate_with(
+    program: &str,
+    options: Options,
+) -> Result<(String, nccomp::compensate::Summary), String> {
+    let machine = machine();
+    let errors = random_errors(&machine, &mut Lcg(7));
+    let comp = Compensator::new(&machine, &errors, options).unwrap();
+    let mut out = Vec::new();
+    comp.run(program.as_bytes(), "p.nc", &mut out)
+        .map(|s| (String::from_utf8(out).unwrap(), s))
+        .map_err(|e| e.to_string())
+}
+
+#[test]
+fn an_axis_at_its_travel_limit_is_held_there_and_the_tip_still_lands() {
+    // A is programmed exactly at its limit of −120°: a correction past it is not written.
+    let program = "G0 X10 Y20 Z30 A-120 C45\nG1 X50 A-119.99995\n";
+    let (out, summary) = compensate_with(program, Options::default()).unwrap();
+    let machine = machine();
+    let errors = random_errors(&machine, &mut Lcg(7));
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    for (qn, qa) in axis_states(program).iter().zip(axis_states(&out)) {
+        assert!(qa[3] >= -120.0, "{out}");
+        let (target, _) = kin.pose(Model::Nominal, qn, 0.0);
+        let (reached, _) = kin.pose(Model::Actual, &qa, 0.0);
+        assert!(reached.deviation(&target).0 < 1e-3, "{out}");
+    }
+    assert!(
+        !summary.at_limit.is_empty() || out.lines().next().unwrap().contains("A-120 "),
+        "{out}"
+    );
+    // A program that itself leaves the travel is refused.
+    let err = compensate_with("G0 X10 A-125\n", Options::default()).unwrap_err();
+    assert!(
+        err.contains("p.nc:1:8: axis A is programmed to -125.0000, outside its travel"),
+        "{err}"
+    );
+}
+
+#[test]
+fn optional_blocks_never_change_what_the_program_does_with_block_delete_on() {
+    // Line 3 would need an X word only because of the optional line 2: refused.
+    let err = compensate_with(
+        "G0 X0 Y0 Z50 A-30 C0\n/G1 X20\nG1 Y20\n",
+        Options::default(),
+    )
+    .unwrap_err();
+    assert!(
+        err.contains("p.nc:3:4:") && err.contains("optional block (/) at line 2"),
+        "{err}"
+    );
+    // Programming the axis again makes it certain.
+    let (out, _) = compensate_with(
+        "G0 X0 Y0 Z50 A-30 C0\n/G1 X20\nG1 X20 Y20\n",
+        Options::default(),
+    )
+    .unwrap();
+    assert_eq!(out.lines().count(), 3);
+}
+
+#[test]
+fn held_axes_are_not_reported_as_singular() {
+    let options = Options {
+        hold: vec!["C".into()],
+        ..Options::default()
+    };
+    let (out, summary) = compensate_with("G0 X10 Y20 Z30 A-40 C45\n", options).unwrap();
+    assert!(
+        out.contains("C45\n") || out.contains("C45 "),
+        "C keeps its value: {out}"
+    );
+    assert_eq!(summary.singular_blocks, 0);
+    // The direction error C would have fixed is reported, not hidden.
+    assert!(
+        summary.after_direction.value > 1e-6,
+        "{}",
+        summary.after_direction.value
+    );
+}

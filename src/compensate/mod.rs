@@ -81,6 +81,13 @@ struct State {
     length: f64,
     tool: Option<u32>,
     work_offset: Option<i64>,
+    /// Bit k: variable k was last set by an optional (block delete) block, at the line in
+    /// `optional_line[k]`, so its programmed value depends on the block delete switch.
+    uncertain: u32,
+    /// Bit k: variable k was only corrected (not programmed) by an optional block, so the
+    /// machine may be microns off what `emitted` says: the next block writes it.
+    unsettled: u32,
+    optional_line: [usize; MAX_AXES],
 }
 
 /// A change to one line: replace a byte range, or insert at a position (empty range).
@@ -187,6 +194,9 @@ impl<'m> Compensator<'m> {
             length: self.machine.tool.length,
             tool: None,
             work_offset: None,
+            uncertain: 0,
+            unsettled: 0,
+            optional_line: [0; MAX_AXES],
         };
         for v in 0..n {
             state.decimals[v] = self.res_decimals(v, false);
@@ -250,6 +260,10 @@ impl<'m> Compensator<'m> {
         at: &dyn Fn(usize, String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
         let n = self.kin.len();
+        let optional = tokens
+            .iter()
+            .find(|t| t.kind != TokenKind::Space)
+            .is_some_and(|t| t.kind == TokenKind::BlockDelete);
         // Axis words of this block: (variable, token index).
         let mut axis_words: [Option<usize>; MAX_AXES] = [None; MAX_AXES];
         let mut has_words = false;
@@ -482,12 +496,61 @@ impl<'m> Compensator<'m> {
                 };
             }
         }
-        let sol = self.kin.compensate(
-            &state.nominal[..n],
-            state.length,
-            self.hold,
-            &self.options.solve,
-        );
+        // Programmed values outside the travel are the program's own fault.
+        for (v, word) in axis_words.iter().enumerate().take(n) {
+            if let Some([lo, hi]) = self.travel(v)
+                && !(lo..=hi).contains(&state.nominal[v])
+                && !self.options.allow_limit_violations
+            {
+                let col = word.map_or(0, |i| tokens[i].span.start);
+                return Err(at(
+                    col,
+                    format!(
+                        "axis {} is programmed to {:.4}, outside its travel {lo} … {hi} (use --allow-limit-violations to compensate it anyway)",
+                        self.axis_name(v),
+                        state.nominal[v]
+                    ),
+                ));
+            }
+        }
+        // Solve; an axis the correction would push past a travel limit it was programmed
+        // within is held at its programmed value instead (the others still put the tip in
+        // place; the direction error it would have fixed is reported).
+        let mut hold = self.hold;
+        let mut at_limit = 0u32;
+        let sol = loop {
+            let sol =
+                self.kin
+                    .compensate(&state.nominal[..n], state.length, hold, &self.options.solve);
+            // Only rotary axes: holding one costs direction, never position.
+            let past = (0..n).find(|&v| {
+                hold & (1 << v) == 0
+                    && !self.is_linear(v)
+                    && self.travel(v).is_some_and(|[lo, hi]| {
+                        let x = sol.q[v];
+                        (x < lo || x > hi) && (lo..=hi).contains(&state.nominal[v])
+                    })
+            });
+            match past {
+                Some(v) if !self.options.allow_limit_violations => {
+                    hold |= 1 << v;
+                    at_limit |= 1 << v;
+                }
+                _ => break sol,
+            }
+        };
+        if at_limit != 0 && sol.position_residual > 1e-6 {
+            let v = at_limit.trailing_zeros() as usize;
+            let col = axis_words[v].map_or(0, |i| tokens[i].span.start);
+            return Err(at(
+                col,
+                format!(
+                    "the correction would push axis {} past its travel limit, and holding it there leaves the tip {:.4} mm off (use --allow-limit-violations to write it anyway)",
+                    self.axis_name(v),
+                    sol.position_residual
+                ),
+            ));
+        }
         summary.motion_blocks += 1;
         // Guard against a model or pose that turns microns into a big move.
         for v in 0..n {
@@ -498,12 +561,15 @@ impl<'m> Compensator<'m> {
                 self.options.max_correction.1
             };
             if delta.is_nan() || delta > limit {
-                let col = axis_words
-                    .iter()
-                    .flatten()
-                    .map(|&i| tokens[i].span.start)
-                    .min()
-                    .unwrap_or(0);
+                let col = axis_words[v]
+                    .or_else(|| {
+                        axis_words
+                            .iter()
+                            .flatten()
+                            .copied()
+                            .min_by_key(|&i| tokens[i].span.start)
+                    })
+                    .map_or(0, |i| tokens[i].span.start);
                 return Err(at(
                     col,
                     format!(
@@ -559,10 +625,39 @@ impl<'m> Compensator<'m> {
                         summary.words_changed += 1;
                     }
                     state.programmed |= 1 << v;
+                    state.unsettled &= !(1 << v);
+                    if optional {
+                        state.uncertain |= 1 << v;
+                        state.optional_line[v] = line.number;
+                    } else {
+                        state.uncertain &= !(1 << v);
+                    }
                 }
                 None => {
                     let d = state.decimals[v].max(self.res_decimals(v, state.inch));
-                    if !same_text(to_units(state.emitted[v]), value, d) {
+                    let unsettled = state.unsettled & (1 << v) != 0 && !optional;
+                    if unsettled || !same_text(to_units(state.emitted[v]), value, d) {
+                        if state.uncertain & (1 << v) != 0 && !optional {
+                            let letter = self.letter(v) as char;
+                            let col = axis_words
+                                .iter()
+                                .flatten()
+                                .map(|&i| tokens[i].span.start)
+                                .min()
+                                .unwrap_or(0);
+                            return Err(at(
+                                col,
+                                format!(
+                                    "this block needs a corrected {letter} word, but {letter} was last set by the optional block (/) at line {}: adding it would change what the program does when block delete is on (program {letter} in this block)",
+                                    state.optional_line[v]
+                                ),
+                            ));
+                        }
+                        if optional {
+                            state.unsettled |= 1 << v;
+                        } else {
+                            state.unsettled &= !(1 << v);
+                        }
                         let mut text = String::new();
                         write_fixed(value, d, &mut text);
                         state.emitted[v] = from_units(text.parse().unwrap_or(value));
@@ -605,15 +700,20 @@ impl<'m> Compensator<'m> {
             .pose(Model::Actual, &state.emitted[..n], state.length);
         let (bp, bd) = (sol.start_position_error, sol.start_direction_error);
         let (ap, ad) = after.deviation(&sol.target);
-        summary.record(line.number, bp, bd, ap, ad, sol.held != 0, beyond);
-        if sol.held != 0 {
-            for v in 0..n {
-                if sol.held & (1 << v) != 0 {
-                    summary.note_held(self.axis_name(v));
-                }
+        summary.record(line.number, bp, bd, ap, ad, sol.singular != 0, beyond);
+        for v in 0..n {
+            if sol.singular & (1 << v) != 0 {
+                summary.note_held(self.axis_name(v));
+            }
+            if at_limit & (1 << v) != 0 {
+                summary.note_at_limit(self.axis_name(v), line.number);
             }
         }
         Ok(())
+    }
+
+    fn travel(&self, var: usize) -> Option<[f64; 2]> {
+        self.machine.axes[self.kin.axes()[var]].travel
     }
 
     fn axis_letters(&self) -> String {

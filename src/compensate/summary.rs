@@ -45,6 +45,9 @@ pub struct Summary {
     /// Axes that were compensated before the program first set them, assuming their home
     /// value 0, with the first line where that happened.
     pub assumed_home: Vec<(String, usize)>,
+    /// Axes held at their programmed value because the correction would have pushed them
+    /// past a travel limit: (axis, blocks, first line).
+    pub at_limit: Vec<(String, usize, usize)>,
     /// Travel-limit violations written anyway (--allow-limit-violations).
     pub limit_violations: Vec<String>,
 }
@@ -84,10 +87,26 @@ impl Summary {
         }
     }
 
+    pub(crate) fn note_at_limit(&mut self, axis: &str, line: usize) {
+        match self.at_limit.iter_mut().find(|(a, _, _)| a == axis) {
+            Some(entry) => entry.1 += 1,
+            None => self.at_limit.push((axis.to_string(), 1, line)),
+        }
+    }
+
     pub(crate) fn note_held(&mut self, axis: &str) {
         if !self.held_axes.iter().any(|a| a == axis) {
             self.held_axes.push(axis.to_string());
         }
+    }
+}
+
+/// `n` with the noun, pluralised the simple English way.
+fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
     }
 }
 
@@ -96,14 +115,17 @@ impl fmt::Display for Summary {
         if self.zero_model {
             return write!(
                 f,
-                "{} lines; the error model is zero, so the program is unchanged",
-                self.lines
+                "{}; the error model is zero, so the program is unchanged",
+                count(self.lines, "line")
             );
         }
         writeln!(
             f,
-            "{} lines, {} motion blocks compensated: {} words changed, {} words added",
-            self.lines, self.motion_blocks, self.words_changed, self.words_added
+            "{}, {} compensated: {} changed, {} added",
+            count(self.lines, "line"),
+            count(self.motion_blocks, "motion block"),
+            count(self.words_changed, "word"),
+            count(self.words_added, "word")
         )?;
         let at = |e: Extreme| {
             if e.line == 0 {
@@ -129,17 +151,25 @@ impl fmt::Display for Summary {
         if self.singular_blocks > 0 {
             write!(
                 f,
-                "\n{} blocks at singular poses (tool along axis {}): the axis was held at its programmed value; direction error left there up to {}",
-                self.singular_blocks,
+                "\n{} at singular poses (tool along axis {}): the axis was held at its programmed value; direction error left there up to {}",
+                count(self.singular_blocks, "block"),
                 self.held_axes.join(", "),
                 urad(self.singular_direction)
+            )?;
+        }
+        for (axis, blocks, line) in &self.at_limit {
+            write!(
+                f,
+                "\nnote: in {} (first at line {line}) the correction would have pushed axis {axis} past its travel limit; it was held at its programmed value",
+                count(*blocks, "block")
             )?;
         }
         if self.beyond_table_blocks > 0 {
             write!(
                 f,
-                "\nnote: {} blocks (first at line {}) lie beyond the ends of an error table; the end values were used",
-                self.beyond_table_blocks, self.first_beyond_table
+                "\nnote: error tables were read beyond their ends in {} (first at line {}); the end values were used",
+                count(self.beyond_table_blocks, "block"),
+                self.first_beyond_table
             )?;
         }
         for (axis, line) in &self.assumed_home {

@@ -52,8 +52,11 @@ pub struct Solution {
     /// The pose solved for.
     pub target: Pose,
     pub iterations: usize,
-    /// Bit k set: variable k was held at its start value (singular rotary axis).
+    /// Bit k set: variable k was held at its start value.
     pub held: u32,
+    /// Bit k set: variable k was held because it is a rotary axis at a singular pose (set
+    /// by [`Kinematics::compensate`]).
+    pub singular: u32,
     /// Whether an error table was read beyond its ends at the solution.
     pub beyond: bool,
 }
@@ -88,8 +91,10 @@ impl Kinematics {
         options: &SolveOptions,
     ) -> Solution {
         let (target, jac) = self.pose_and_jacobian(Model::Nominal, q, length);
-        let held = hold | self.singular_axes(&target, &jac, options.singular_angle);
-        self.solve(Model::Actual, &target, q, length, held, options)
+        let singular = self.singular_axes(&target, &jac, options.singular_angle) & !hold;
+        let mut sol = self.solve(Model::Actual, &target, q, length, hold | singular, options);
+        sol.singular = singular;
+        sol
     }
 
     /// Rotary variables whose axis line lies within `limit` (rad) of the tool direction.
@@ -172,6 +177,7 @@ impl Kinematics {
             target: *target,
             iterations,
             held,
+            singular: 0,
             beyond,
         }
     }

@@ -24,7 +24,7 @@ pub fn scaled(value: f64, decimals: u8) -> Option<i64> {
         1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12,
     ];
     let x = value * *POW10.get(usize::from(decimals))?;
-    if !(x.abs() < 1e14) {
+    if x.is_nan() || x.abs() >= 1e14 {
         return None;
     }
     let r = x.round();
