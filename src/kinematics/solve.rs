@@ -9,7 +9,7 @@
 
 use super::{Jacobian, Kinematics, MAX_AXES, Model, Pose, angle_between};
 use crate::model::AxisKind;
-use nalgebra::{DMatrix, DVector, Matrix5, Vector3, Vector5};
+use nalgebra::{DMatrix, Matrix5, SMatrix, Vector3, Vector5};
 
 /// How the solve behaves.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -90,9 +90,13 @@ impl Kinematics {
         hold: u32,
         options: &SolveOptions,
     ) -> Solution {
-        let (target, jac) = self.pose_and_jacobian(Model::Nominal, q, length);
-        let singular = self.singular_axes(&target, &jac, options.singular_angle) & !hold;
-        let mut sol = self.solve(Model::Actual, &target, q, length, hold | singular, options);
+        let (target, _) = self.pose(Model::Nominal, q, length);
+        // The axis lines of the real machine lie within micro-radians of the nominal ones:
+        // its Jacobian serves both for the singularity test and for the solve.
+        let first = self.pose_and_jacobian(Model::Actual, q, length);
+        let singular = self.singular_axes(&target, &first.1, options.singular_angle) & !hold;
+        let mut sol =
+            self.solve_from(Model::Actual, &target, q, length, hold | singular, options, first);
         sol.singular = singular;
         sol
     }
@@ -126,6 +130,22 @@ impl Kinematics {
         held: u32,
         options: &SolveOptions,
     ) -> Solution {
+        let first = self.pose_and_jacobian(model, &start[..self.len()], length);
+        self.solve_from(model, target, start, length, held, options, first)
+    }
+
+    /// [`Kinematics::solve`] with the pose and Jacobian at `start` already evaluated.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_from(
+        &self,
+        model: Model,
+        target: &Pose,
+        start: &[f64],
+        length: f64,
+        held: u32,
+        options: &SolveOptions,
+        (mut pose, mut jac): (Pose, Jacobian),
+    ) -> Solution {
         let n = self.len();
         let mut q = [0.0; MAX_AXES];
         q[..n].copy_from_slice(&start[..n]);
@@ -137,8 +157,8 @@ impl Kinematics {
             m += 1;
         }
         let free = &free[..m];
-        let (mut pose, mut jac) = self.pose_and_jacobian(model, &q[..n], length);
         let mut beyond = jac.beyond;
+        let mut map = step_map(&jac, free, &b1, &b2);
         let (start_position_error, start_direction_error) = pose.deviation(target);
         let mut iterations = 0;
         loop {
@@ -150,7 +170,8 @@ impl Kinematics {
                 break;
             }
             iterations += 1;
-            let step = newton_step(&jac, free, &rp, &rd, &b1, &b2);
+            let r = Vector5::new(rp.x, rp.y, rp.z, rd[0], rd[1]);
+            let step = map * r;
             let mut biggest: f64 = 0.0;
             for (i, &k) in free.iter().enumerate() {
                 q[k] -= step[i];
@@ -159,6 +180,7 @@ impl Kinematics {
             if iterations % 4 == 0 {
                 (pose, jac) = self.pose_and_jacobian(model, &q[..n], length);
                 beyond = jac.beyond;
+                map = step_map(&jac, free, &b1, &b2);
             } else {
                 (pose, beyond) = self.pose(model, &q[..n], length);
             }
@@ -183,35 +205,33 @@ impl Kinematics {
     }
 }
 
-/// The Newton step Δ on the free variables with J·Δ = r: position rows exactly (least
-/// squares if out of reach), direction rows as well as the remaining freedom allows.
-fn newton_step(
+/// The linear map from the residual r = [position (3); direction (2)] to the Newton step
+/// Δ on the free variables (row i is free variable i) with J·Δ ≈ r: position rows exactly
+/// (least squares if out of reach), direction rows as well as the remaining freedom
+/// allows. Computed once per Jacobian and applied at every iteration.
+fn step_map(
     jac: &Jacobian,
     free: &[usize],
-    rp: &Vector3<f64>,
-    rd: &[f64; 2],
     b1: &Vector3<f64>,
     b2: &Vector3<f64>,
-) -> [f64; MAX_AXES] {
+) -> SMatrix<f64, MAX_AXES, 5> {
     let m = free.len();
-    let mut out = [0.0; MAX_AXES];
+    let mut out = SMatrix::<f64, MAX_AXES, 5>::zeros();
     let row = |i: usize, k: usize| match i {
         0..=2 => jac.dp[k][i],
         3 => b1.dot(&jac.do_[k]),
         _ => b2.dot(&jac.do_[k]),
     };
-    let r = [rp.x, rp.y, rp.z, rd[0], rd[1]];
-    if m == 5 {
-        let a = Matrix5::from_fn(|i, j| row(i, free[j]));
-        if let Some(x) = a.lu().solve(&Vector5::from_column_slice(&r))
-            && x.iter().all(|v| v.is_finite())
-        {
-            out[..5].copy_from_slice(x.as_slice());
-            return out;
-        }
+    if m == 5
+        && let Some(inv) = Matrix5::from_fn(|i, j| row(i, free[j])).try_inverse()
+        && inv.iter().all(|v| v.is_finite())
+    {
+        out.fixed_view_mut::<5, 5>(0, 0).copy_from(&inv);
+        return out;
     }
     // Position as a hard constraint: Δ = Jp⁺·rp + N·z, N projecting onto Jp's null space,
-    // z the least-squares fit of the direction rows within it.
+    // z the least-squares fit of the direction rows within it:
+    // Δ = [Jp⁺ − N·A⁺·Jd·Jp⁺ | N·A⁺]·r with A = Jd·N.
     let jp = DMatrix::from_fn(3, m, |i, j| row(i, free[j]));
     let jd = DMatrix::from_fn(2, m, |i, j| row(i + 3, free[j]));
     let pinv = |a: &DMatrix<f64>| {
@@ -221,13 +241,17 @@ fn newton_step(
             .unwrap_or_else(|_| DMatrix::zeros(a.ncols(), a.nrows()))
     };
     let jp_pinv = pinv(&jp);
-    let d0 = &jp_pinv * DVector::from_column_slice(&r[..3]);
     let null = DMatrix::identity(m, m) - &jp_pinv * &jp;
-    let a = &jd * &null;
-    let rest = DVector::from_column_slice(&r[3..]) - &jd * &d0;
-    let z = pinv(&a) * rest;
-    let d = d0 + null * z;
-    out[..m].copy_from_slice(d.as_slice());
+    let n_a_pinv = &null * pinv(&(&jd * &null));
+    let position_part = &jp_pinv - &n_a_pinv * &jd * &jp_pinv;
+    for i in 0..m {
+        for j in 0..3 {
+            out[(i, j)] = position_part[(i, j)];
+        }
+        for j in 0..2 {
+            out[(i, 3 + j)] = n_a_pinv[(i, j)];
+        }
+    }
     out
 }
 
