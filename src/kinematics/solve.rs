@@ -95,8 +95,15 @@ impl Kinematics {
         // its Jacobian serves both for the singularity test and for the solve.
         let first = self.pose_and_jacobian(Model::Actual, q, length);
         let singular = self.singular_axes(&target, &first.1, options.singular_angle) & !hold;
-        let mut sol =
-            self.solve_from(Model::Actual, &target, q, length, hold | singular, options, first);
+        let mut sol = self.solve_from(
+            Model::Actual,
+            &target,
+            q,
+            length,
+            hold | singular,
+            options,
+            first,
+        );
         sol.singular = singular;
         sol
     }
