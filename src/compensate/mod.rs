@@ -7,6 +7,7 @@
 
 mod gcodes;
 mod summary;
+mod words;
 
 pub use summary::{Extreme, Summary};
 
@@ -16,6 +17,7 @@ use crate::model::{AxisKind, ErrorModel, Machine};
 use crate::nc::number::{decimals_for, same_text, write_fixed};
 use crate::nc::{self, Token, TokenKind, Value};
 use gcodes::GCode;
+use words::BlockMotion;
 
 /// Millimetres per inch.
 const INCH: f64 = 25.4;
@@ -259,232 +261,14 @@ impl<'m> Compensator<'m> {
         summary: &mut Summary,
         at: &dyn Fn(usize, String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
+        let Some(BlockMotion {
+            axis_words,
+            optional,
+        }) = self.read_block(line, tokens, state, at)?
+        else {
+            return Ok(());
+        };
         let n = self.kin.len();
-        let optional = tokens
-            .iter()
-            .find(|t| t.kind != TokenKind::Space)
-            .is_some_and(|t| t.kind == TokenKind::BlockDelete);
-        // Axis words of this block: (variable, token index).
-        let mut axis_words: [Option<usize>; MAX_AXES] = [None; MAX_AXES];
-        let mut has_words = false;
-        let mut dwell = false;
-        let mut motion_in_block = None;
-        let mut h_word: Option<(u32, usize)> = None;
-        let mut g43 = false;
-        let mut g49 = false;
-        let mut o_word = None;
-        let mut other_text = None;
-        let mut arc_word: Option<(char, usize)> = None;
-        for (i, t) in tokens.iter().enumerate() {
-            let w = match &t.kind {
-                TokenKind::Word(w) => w,
-                TokenKind::Other => {
-                    other_text.get_or_insert(t.span.start);
-                    continue;
-                }
-                _ => continue,
-            };
-            has_words = true;
-            let letter = w.letter as char;
-            let number = match w.value {
-                Value::Number { value, .. } => value,
-                Value::Expression => {
-                    return Err(at(
-                        t.span.start,
-                        format!(
-                            "{letter} is given by an expression; expressions cannot be compensated (expected a number)"
-                        ),
-                    ));
-                }
-                Value::Parameter => {
-                    return Err(at(
-                        t.span.start,
-                        format!(
-                            "{letter} is given by a parameter; parameters cannot be compensated (expected a number)"
-                        ),
-                    ));
-                }
-                Value::Missing => {
-                    if letter == 'O' {
-                        o_word = Some(t.span.start);
-                        continue;
-                    }
-                    return Err(at(
-                        t.span.start,
-                        format!("{letter} has no value (expected a number after it)"),
-                    ));
-                }
-            };
-            let code10 = (number * 10.0).round() as i64;
-            match letter {
-                'G' => match gcodes::classify(code10) {
-                    GCode::Unsupported(what) => {
-                        return Err(at(
-                            t.span.start,
-                            format!(
-                                "{} cannot be compensated: {what} {}",
-                                code_text(line.content, t),
-                                if what == "this G code" {
-                                    "is not known to nccomp"
-                                } else {
-                                    "is not supported"
-                                }
-                            ),
-                        ));
-                    }
-                    g @ (GCode::Motion | GCode::Arc) => motion_in_block = Some((g, t.span.start)),
-                    GCode::Dwell => dwell = true,
-                    GCode::Inch => state.inch = true,
-                    GCode::Millimetre => state.inch = false,
-                    GCode::ToolLength => g43 = true,
-                    GCode::ToolLengthOff => g49 = true,
-                    GCode::WorkOffset => {
-                        if let Some(prev) = state.work_offset
-                            && prev != code10
-                        {
-                            {
-                                return Err(at(
-                                    t.span.start,
-                                    format!(
-                                        "{} switches the work offset; the machine file describes one program zero, so a program must keep to one work offset",
-                                        code_text(line.content, t)
-                                    ),
-                                ));
-                            }
-                        }
-                        state.work_offset = Some(code10);
-                    }
-                    GCode::CancelCycle => state.motion = None,
-                    GCode::Absolute | GCode::Harmless => {}
-                },
-                'M' => {
-                    if let Some(what) = gcodes::unsupported_m(code10) {
-                        return Err(at(
-                            t.span.start,
-                            format!(
-                                "{} cannot be compensated: {what} is not supported",
-                                code_text(line.content, t)
-                            ),
-                        ));
-                    }
-                }
-                'T' => state.tool = Some(number as u32),
-                'H' => h_word = Some((number as u32, t.span.start)),
-                'O' => o_word = Some(t.span.start),
-                'N' | 'F' | 'S' | 'D' | 'P' | 'Q' | 'L' => {}
-                _ => {
-                    let var = (letter.is_ascii_uppercase())
-                        .then(|| self.var_of_letter[(w.letter - b'A') as usize])
-                        .flatten();
-                    match var {
-                        Some(v) => {
-                            if axis_words[v].is_some() {
-                                return Err(at(
-                                    t.span.start,
-                                    format!("{letter} appears twice in one block"),
-                                ));
-                            }
-                            axis_words[v] = Some(i);
-                        }
-                        None if dwell && letter == 'X' => {}
-                        None if "IJKR".contains(letter) => {
-                            arc_word.get_or_insert((letter, t.span.start));
-                        }
-                        None => {
-                            let what = if "XYZABCUVW".contains(letter) {
-                                format!(
-                                    "{letter} is not an axis of this machine (its axes are {})",
-                                    self.axis_letters()
-                                )
-                            } else {
-                                format!("{letter} words are not known to nccomp")
-                            };
-                            return Err(at(
-                                t.span.start,
-                                format!("{what}; expected a G0/G1 block in machine axes"),
-                            ));
-                        }
-                    }
-                }
-            }
-        }
-        if let Some(off) = other_text {
-            // Parameter assignments (`#1 = 5`) move nothing; a parameter used in a word is
-            // caught above. Anything else may be motion we do not understand.
-            if line.content[off] != b'#' && o_word.is_none() {
-                let end = tokens
-                    .iter()
-                    .find(|t| t.span.start == off)
-                    .map_or(off + 1, |t| t.span.end);
-                return Err(at(
-                    off,
-                    format!(
-                        "`{}` cannot be compensated (expected words such as G1 X10.5)",
-                        String::from_utf8_lossy(&line.content[off..end])
-                    ),
-                ));
-            }
-        }
-        if !has_words {
-            return Ok(());
-        }
-        if let Some(col) = o_word {
-            if tokens.iter().any(|t| {
-                matches!(t.kind, TokenKind::Other | TokenKind::Word(_)) && t.span.start > col
-            }) {
-                return Err(at(col, "O-word control flow (subprograms, loops, conditionals) cannot be compensated; expected a plain program number line".into()));
-            }
-            return Ok(());
-        }
-        if g43 {
-            let number = match h_word {
-                Some((h, _)) => h,
-                None => state.tool.ok_or_else(|| {
-                    at(
-                        0,
-                        "G43 without an H word and no tool selected (expected G43 Hn)".into(),
-                    )
-                })?,
-            };
-            state.length = *self.machine.tool.lengths.get(&number).ok_or_else(|| {
-                at(h_word.map_or(0, |h| h.1), format!(
-                    "tool length H{number} is not in the machine file's [tool] lengths (expected one of: {})",
-                    self.machine.tool.lengths.keys().map(|k| k.to_string()).collect::<Vec<_>>().join(", ")
-                ))
-            })?;
-        }
-        if g49 {
-            state.length = self.machine.tool.length;
-        }
-        if let Some((g, _)) = motion_in_block {
-            state.motion = Some(g);
-        }
-        if state.motion == Some(GCode::Arc) && (motion_in_block.is_some() || arc_word.is_some()) {
-            let col = motion_in_block.map_or(0, |m| m.1);
-            return Err(at(
-                col,
-                "arcs (G2/G3) cannot be compensated yet; expected G0/G1 moves".into(),
-            ));
-        }
-        if let Some((letter, col)) = arc_word {
-            return Err(at(
-                col,
-                format!(
-                    "{letter} words (arc centres and radii, tool vectors) are not supported; expected a G0/G1 block in machine axes"
-                ),
-            ));
-        }
-        let moves = axis_words[..n].iter().any(Option::is_some);
-        if dwell || !moves {
-            return Ok(());
-        }
-        if state.motion == Some(GCode::Arc) {
-            let col = motion_in_block.map_or(0, |m| m.1);
-            return Err(at(
-                col,
-                "arcs (G2/G3) cannot be compensated yet; expected G0/G1 moves".into(),
-            ));
-        }
         // New nominal values.
         for (v, word) in axis_words.iter().enumerate().take(n) {
             if let Some(i) = *word {
