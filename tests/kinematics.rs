@@ -224,3 +224,52 @@ fn singular_pose_holds_the_free_axis() {
     assert_eq!(sol.held, 0);
     assert!(sol.direction_residual < 1e-8);
 }
+
+/// A machine with fewer axes than equations, one of them rotary (a turning spindle A with
+/// an X–Z slide), with its axes defined in either order.
+fn three_axis_rotary(rotary_first: bool) -> nccomp::model::Machine {
+    use common::{linear, rotary};
+    let a = rotary("A", [-1.0, 0.0, 0.0], [0.0, 0.0, -100.0]);
+    let x = linear("X", [1.0, 0.0, 0.0]);
+    let z = linear("Z", [0.0, 0.0, 1.0]);
+    let (axes, wp, tool) = if rotary_first {
+        (vec![a, x, z], vec![0], vec![1, 2])
+    } else {
+        (vec![x, z, a], vec![2], vec![0, 1])
+    };
+    nccomp::model::Machine {
+        name: None,
+        axes,
+        workpiece_chain: wp,
+        tool_chains: vec![nccomp::model::Chain {
+            name: "tool".into(),
+            axes: tool,
+        }],
+        resolution: Default::default(),
+        tool: Default::default(),
+    }
+}
+
+#[test]
+fn position_lands_with_fewer_axes_than_equations_whatever_the_axis_order() {
+    for rotary_first in [true, false] {
+        let machine = three_axis_rotary(rotary_first);
+        let errors = random_errors(&machine, &mut Lcg(21));
+        let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+        // Values in machine-file order.
+        let q = if rotary_first {
+            [10.0, 35.0, 12.0]
+        } else {
+            [35.0, 12.0, 10.0]
+        };
+        let sol = kin.compensate(&q, 0.0, 0, &SolveOptions::default());
+        assert!(
+            sol.position_residual < 1e-6,
+            "tip off by {} mm",
+            sol.position_residual
+        );
+        for (k, v) in sol.values().iter().enumerate() {
+            assert!((v - q[k]).abs() < 0.1, "axis {k} moved {}", v - q[k]);
+        }
+    }
+}

@@ -14,7 +14,7 @@ pub use summary::{Extreme, Summary};
 use crate::diag::{Diagnostic, Error};
 use crate::kinematics::{Kinematics, MAX_AXES, Model, SolveOptions};
 use crate::model::{AxisKind, ErrorModel, Machine};
-use crate::nc::number::{decimals_for, same_text, write_fixed};
+use crate::nc::number::{decimals_for, same_text, scaled, write_fixed};
 use crate::nc::{self, Token, TokenKind, Value};
 use gcodes::GCode;
 use words::BlockMotion;
@@ -104,15 +104,21 @@ impl<'m> Compensator<'m> {
         let chain = match &options.tool_chain {
             None => 0,
             Some(name) => machine.tool_chain(name).ok_or_else(|| {
-                Error::Usage(format!(
-                    "machine has no tool chain named `{name}`; it has {}",
-                    machine
-                        .tool_chains
-                        .iter()
-                        .map(|c| format!("`{}`", c.name))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ))
+                Error::Usage(if machine.tool_chains.len() == 1 {
+                    format!(
+                        "--tool-chain {name}: the machine file has a single `tool_chain`, so there is nothing to choose (leave the option out)"
+                    )
+                } else {
+                    format!(
+                        "--tool-chain {name}: the machine file has no such tool chain; it has {}",
+                        machine
+                            .tool_chains
+                            .iter()
+                            .map(|c| format!("`{}`", c.name))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                })
             })?,
         };
         let kin =
@@ -311,7 +317,10 @@ impl<'m> Compensator<'m> {
                 hold & (1 << v) == 0
                     && !self.is_linear(v)
                     && self.travel(v).is_some_and(|[lo, hi]| {
-                        let x = sol.q[v];
+                        // As it would be written: a crossing below the resolution is none.
+                        let d = self.decimals.1;
+                        let x = scaled(sol.q[v], d)
+                            .map_or(sol.q[v], |k| k as f64 / 10f64.powi(d.into()));
                         (x < lo || x > hi) && (lo..=hi).contains(&state.nominal[v])
                     })
             });
@@ -461,10 +470,18 @@ impl<'m> Compensator<'m> {
                 if x < lo - 1e-9 || x > hi + 1e-9 {
                     let (limit, side) = if x < lo { (lo, "below") } else { (hi, "above") };
                     let col = word.map_or(0, |i| tokens[i].span.start);
-                    let message = format!(
-                        "after compensation axis {} = {x:.4} is {side} its travel limit {limit}",
-                        self.axis_name(v)
-                    );
+                    let message = if (lo..=hi).contains(&state.nominal[v]) {
+                        format!(
+                            "after compensation axis {} = {x:.4} is {side} its travel limit {limit}",
+                            self.axis_name(v)
+                        )
+                    } else {
+                        format!(
+                            "axis {} is programmed to {:.4}, {side} its travel limit {limit}",
+                            self.axis_name(v),
+                            state.nominal[v]
+                        )
+                    };
                     if self.options.allow_limit_violations {
                         summary
                             .limit_violations

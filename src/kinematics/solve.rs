@@ -236,20 +236,36 @@ fn step_map(
         out.fixed_view_mut::<5, 5>(0, 0).copy_from(&inv);
         return out;
     }
-    // Position as a hard constraint: Δ = Jp⁺·rp + N·z, N projecting onto Jp's null space,
-    // z the least-squares fit of the direction rows within it:
+    // Position as a hard constraint: Δ = Jp⁺·rp + N·z, N a basis of what the position rows
+    // cannot see, z the least-squares fit of the direction rows within it:
     // Δ = [Jp⁺ − N·A⁺·Jd·Jp⁺ | N·A⁺]·r with A = Jd·N.
     let jp = DMatrix::from_fn(3, m, |i, j| row(i, free[j]));
     let jd = DMatrix::from_fn(2, m, |i, j| row(i + 3, free[j]));
+    // Singular values below this share of the largest count as zero: a combination of axes
+    // that moves the tip a millionth as much as the others does not move it at all.
+    const RANK: f64 = 1e-6;
     let pinv = |a: &DMatrix<f64>| {
         let svd = a.clone().svd(true, true);
         let top = svd.singular_values.max();
-        svd.pseudo_inverse((top * 1e-10).max(1e-300))
+        svd.pseudo_inverse((top * RANK).max(1e-300))
             .unwrap_or_else(|_| DMatrix::zeros(a.ncols(), a.nrows()))
     };
     let jp_pinv = pinv(&jp);
-    let null = DMatrix::identity(m, m) - &jp_pinv * &jp;
-    let n_a_pinv = &null * pinv(&(&jd * &null));
+    // Null space of Jp from the eigenvectors of JpᵀJp (a full basis, unlike a thin SVD).
+    let gram = jp.transpose() * &jp;
+    let eigen = gram.clone().symmetric_eigen();
+    let top = eigen.eigenvalues.max().max(0.0);
+    let null_cols: Vec<usize> = (0..m)
+        .filter(|&i| eigen.eigenvalues[i] <= top * RANK * RANK)
+        .collect();
+    let null = DMatrix::from_fn(m, null_cols.len(), |i, j| {
+        eigen.eigenvectors[(i, null_cols[j])]
+    });
+    let n_a_pinv = if null_cols.is_empty() {
+        DMatrix::zeros(m, 2)
+    } else {
+        &null * pinv(&(&jd * &null))
+    };
     let position_part = &jp_pinv - &n_a_pinv * &jd * &jp_pinv;
     for i in 0..m {
         for j in 0..3 {

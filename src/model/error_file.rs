@@ -322,8 +322,9 @@ impl<'t> ErrorFile<'_, 't> {
                 return Err(doc.err(
                     v.span(),
                     format!(
-                        "`{term}` has {} values: expected {}, one per entry of `positions`",
+                        "`{term}` has {} value{}: expected {}, one per entry of `positions`",
                         series.len(),
+                        if series.len() == 1 { "" } else { "s" },
                         positions.len()
                     ),
                 ));
