@@ -273,3 +273,23 @@ fn position_lands_with_fewer_axes_than_equations_whatever_the_axis_order() {
         }
     }
 }
+
+#[test]
+fn the_singular_cone_is_that_of_the_programmed_pose() {
+    // The real C axis is tilted by 0.06°: the real angle between tool and C at A = ±2.99°
+    // can be over 3°, yet the programmed pose is singular and C must stay where it is.
+    let machine = trunnion();
+    for sign in [1.0, -1.0] {
+        let mut errors = ErrorModel::zero(&machine);
+        errors.axes[4].location_tilt = Vector3::new(sign * 1e-3, 0.0, 0.0);
+        errors.axes[4].location_shift = Vector3::new(0.01, -0.02, 0.0);
+        let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+        for a in [2.99, -2.99] {
+            let q = [80.0, -40.0, 30.0, a, 120.0];
+            let sol = kin.compensate(&q, 0.0, 0, &SolveOptions::default());
+            assert_eq!(sol.singular, 1 << 4, "A = {a}, tilt sign {sign}");
+            assert_eq!(sol.q[4], 120.0);
+            assert!(sol.position_residual < 1e-6);
+        }
+    }
+}

@@ -90,11 +90,12 @@ impl Kinematics {
         hold: u32,
         options: &SolveOptions,
     ) -> Solution {
-        let (target, _) = self.pose(Model::Nominal, q, length);
-        // The axis lines of the real machine lie within micro-radians of the nominal ones:
-        // its Jacobian serves both for the singularity test and for the solve.
+        // Whether a pose is singular is a property of the programmed (nominal) pose: the
+        // real machine's axis lines are off by up to a few hundred micro-radians, which
+        // would move the edge of the singular cone by that much.
+        let (target, nominal) = self.pose_and_jacobian(Model::Nominal, q, length);
+        let singular = self.singular_axes(&target, &nominal, options.singular_angle) & !hold;
         let first = self.pose_and_jacobian(Model::Actual, q, length);
-        let singular = self.singular_axes(&target, &first.1, options.singular_angle) & !hold;
         let mut sol = self.solve_from(
             Model::Actual,
             &target,
