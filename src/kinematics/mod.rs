@@ -6,6 +6,7 @@
 //! Nothing else in nccomp evaluates a machine: compensation, checks and analysis tools
 //! all come through [`Kinematics`].
 
+pub mod path;
 mod solve;
 
 pub use solve::{Solution, SolveOptions};

@@ -1,0 +1,191 @@
+//! The path between block ends.
+//!
+//! A controller interpolates axis values linearly between blocks, on the nominal machine
+//! and on the real one alike. Compensating the ends of a move does not make its middle
+//! right: the errors vary along the move and the kinematics is not linear. This module
+//! measures how far the compensated path strays from the nominal one, and splits a move
+//! where it strays too far. (Wiring it into the pass is issue 3's subdivision.)
+
+use super::{Kinematics, MAX_AXES, Model, Solution, SolveOptions, angle_between};
+
+/// How far a compensated move strays from its nominal move, sampled at equal parameter
+/// s ∈ (0, 1): the controller is at nominal `q(s)` on the ideal machine and at `q*(s)` on
+/// the real one.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Deviation {
+    /// Largest tip distance (mm) and where (s).
+    pub position: f64,
+    pub position_at: f64,
+    /// Largest direction angle (rad) at non-singular samples, and where.
+    pub direction: f64,
+    pub direction_at: f64,
+}
+
+/// One piece of a subdivided move: its end parameter and the compensated axis values there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Piece {
+    pub s: f64,
+    pub q: [f64; MAX_AXES],
+    pub solution: Option<Solution>,
+}
+
+/// Tolerances of a path: tip distance (mm) and tool direction (rad).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathTolerance {
+    pub position: f64,
+    pub direction: f64,
+    /// Pieces are halved at most this many times (2^depth pieces per move).
+    pub max_depth: u32,
+}
+
+impl Default for PathTolerance {
+    fn default() -> Self {
+        PathTolerance {
+            position: 0.001,
+            direction: 10e-6,
+            max_depth: 10,
+        }
+    }
+}
+
+fn lerp(a: &[f64], b: &[f64], s: f64, out: &mut [f64; MAX_AXES]) {
+    for k in 0..a.len() {
+        out[k] = a[k] + (b[k] - a[k]) * s;
+    }
+}
+
+impl Kinematics {
+    /// The deviation along the move from nominal `qa` → `qb`, executed as `ca` → `cb` on
+    /// the real machine, sampled at parameters `samples`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn deviation(
+        &self,
+        (qa, qb): (&[f64], &[f64]),
+        (ca, cb): (&[f64], &[f64]),
+        length: f64,
+        samples: &[f64],
+        options: &SolveOptions,
+    ) -> Deviation {
+        let n = self.len();
+        let mut dev = Deviation::default();
+        let (mut qn, mut qc) = ([0.0; MAX_AXES], [0.0; MAX_AXES]);
+        for &s in samples {
+            lerp(&qa[..n], &qb[..n], s, &mut qn);
+            lerp(&ca[..n], &cb[..n], s, &mut qc);
+            let (target, jac) = self.pose_and_jacobian(Model::Nominal, &qn[..n], length);
+            let (actual, _) = self.pose(Model::Actual, &qc[..n], length);
+            let dp = (actual.p - target.p).norm();
+            if dp > dev.position {
+                dev.position = dp;
+                dev.position_at = s;
+            }
+            // At a singular pose the direction is not held to the tolerance (the free
+            // axis is never swung to chase it).
+            if self.singular_axes(&target, &jac, options.singular_angle) == 0 {
+                let dd = angle_between(&actual.o, &target.o);
+                if dd > dev.direction {
+                    dev.direction = dd;
+                    dev.direction_at = s;
+                }
+            }
+        }
+        dev
+    }
+
+    /// Split the move nominal `qa` → `qb` (compensated ends `ca`, `cb`) into pieces whose
+    /// compensated paths stay within `tol` at their quarter points. Returns the pieces
+    /// after the start, in order, the last ending at s = 1 with `cb`; a move that needs no
+    /// split gives one piece. Axes in `hold` keep their nominal values at inserted points.
+    #[allow(clippy::too_many_arguments)]
+    pub fn subdivide(
+        &self,
+        (qa, qb): (&[f64], &[f64]),
+        (ca, cb): (&[f64], &[f64]),
+        length: f64,
+        hold: u32,
+        tol: &PathTolerance,
+        options: &SolveOptions,
+    ) -> Vec<Piece> {
+        let n = self.len();
+        let mut end = [0.0; MAX_AXES];
+        end[..n].copy_from_slice(&cb[..n]);
+        let mut start = [0.0; MAX_AXES];
+        start[..n].copy_from_slice(&ca[..n]);
+        let mut pieces = Vec::new();
+        self.split(
+            (qa, qb),
+            (0.0, start),
+            (1.0, end, None),
+            length,
+            hold,
+            tol,
+            options,
+            0,
+            &mut pieces,
+        );
+        pieces
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn split(
+        &self,
+        (qa, qb): (&[f64], &[f64]),
+        (s0, c0): (f64, [f64; MAX_AXES]),
+        (s1, c1, sol1): (f64, [f64; MAX_AXES], Option<Solution>),
+        length: f64,
+        hold: u32,
+        tol: &PathTolerance,
+        options: &SolveOptions,
+        depth: u32,
+        out: &mut Vec<Piece>,
+    ) {
+        let n = self.len();
+        let (mut n0, mut n1) = ([0.0; MAX_AXES], [0.0; MAX_AXES]);
+        lerp(&qa[..n], &qb[..n], s0, &mut n0);
+        lerp(&qa[..n], &qb[..n], s1, &mut n1);
+        let dev = self.deviation(
+            (&n0[..n], &n1[..n]),
+            (&c0[..n], &c1[..n]),
+            length,
+            &[0.25, 0.5, 0.75],
+            options,
+        );
+        let fine = dev.position <= tol.position && dev.direction <= tol.direction;
+        if fine || depth >= tol.max_depth {
+            out.push(Piece {
+                s: s1,
+                q: c1,
+                solution: sol1,
+            });
+            return;
+        }
+        let mid = 0.5 * (s0 + s1);
+        let mut qm = [0.0; MAX_AXES];
+        lerp(&qa[..n], &qb[..n], mid, &mut qm);
+        let sol = self.compensate(&qm[..n], length, hold, options);
+        // The solve starts at the nominal point, so a rotary axis stays on its side.
+        let cm = sol.q;
+        self.split(
+            (qa, qb),
+            (s0, c0),
+            (mid, cm, Some(sol)),
+            length,
+            hold,
+            tol,
+            options,
+            depth + 1,
+            out,
+        );
+        self.split(
+            (qa, qb),
+            (mid, cm),
+            (s1, c1, sol1),
+            length,
+            hold,
+            tol,
+            options,
+            depth + 1,
+            out,
+        );
+    }
+}
