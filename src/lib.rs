@@ -7,6 +7,7 @@
 
 pub mod compensate;
 pub mod diag;
+pub mod identify;
 pub mod kinematics;
 pub mod model;
 pub mod nc;
