@@ -8,6 +8,7 @@
 
 pub mod path;
 mod solve;
+pub mod tcp;
 
 pub use solve::{Solution, SolveOptions};
 
