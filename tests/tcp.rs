@@ -51,7 +51,7 @@ fn g43_4_linear_axes_follow_from_the_tip_and_the_programmed_rotaries() {
     let (pose, _) = kin.pose(Model::Nominal, &q, 0.0);
     let guess = [0.0, 0.0, 0.0, -40.0, 75.0];
     let sol = kin.tcp_axes_with_rotaries(&pose.p, &guess, 0.0, &SolveOptions::default());
-    for k in 0..5 {
-        assert!((sol.q[k] - q[k]).abs() < 1e-9, "{:?}", sol.values());
+    for (got, want) in sol.values().iter().zip(q) {
+        assert!((got - want).abs() < 1e-9, "{:?}", sol.values());
     }
 }
