@@ -15,7 +15,18 @@ pub enum GCode {
     Dwell,
     Inch,
     Millimetre,
+    /// G90: axis words are positions.
     Absolute,
+    /// G91: axis words are increments from the previous programmed position.
+    Incremental,
+    /// G53: a move in machine coordinates, this block only. Left untouched; the axes it
+    /// names end where nccomp does not know their program coordinates.
+    MachineCoordinates,
+    /// G28, G30: return to a reference point, through the intermediate point the block's
+    /// axis words give. Left untouched; the axes that go home end at an unknown position.
+    ReturnHome,
+    /// G28.1, G30.1: store the current position as the reference point; moves nothing.
+    SetReference,
     /// G43 with an H word: active tool length from the machine file's tool table.
     ToolLength,
     /// G49: back to the reference tool length.
@@ -41,6 +52,10 @@ pub fn classify(code10: i64) -> GCode {
         200 => Inch,
         210 => Millimetre,
         900 => Absolute,
+        910 => Incremental,
+        530 => MachineCoordinates,
+        280 | 300 => ReturnHome,
+        281 | 301 => SetReference,
         430 => ToolLength,
         490 => ToolLengthOff,
         540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => WorkOffset,
@@ -53,20 +68,17 @@ pub fn classify(code10: i64) -> GCode {
         50..=53 => Unsupported("spline interpolation (G5.x)"),
         70 => Unsupported("lathe diameter mode (G7)"),
         100 => Unsupported("data setting (G10)"),
-        280 | 281 | 300 | 301 => Unsupported("return to a reference point (G28/G30)"),
         330 | 331 => Unsupported("threading (G33)"),
         380..=389 => Unsupported("probing (G38.x)"),
         410 | 411 | 420 | 421 => Unsupported("cutter radius compensation (G41/G42)"),
         431 | 432 => Unsupported("a dynamic tool length offset (G43.1/G43.2)"),
         434 | 435 => Unsupported("tool-centre-point control (G43.4/G43.5)"),
         520 => Unsupported("a local coordinate offset (G52)"),
-        530 => Unsupported("a machine-coordinate move (G53)"),
         541 => Unsupported("an extended work offset (G54.1)"),
         680..=689 => Unsupported("coordinate rotation (G68)"),
         160 => Unsupported("polar coordinate programming (G16)"),
         510 | 511 => Unsupported("scaling or mirroring (G51)"),
         730 | 740 | 760 | 810..=899 => Unsupported("a canned cycle"),
-        910 => Unsupported("incremental distance mode (G91)"),
         920..=923 => Unsupported("a coordinate system offset (G92)"),
         _ => Unsupported("this G code"),
     }

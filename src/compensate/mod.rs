@@ -5,19 +5,22 @@
 //! compensated value rounds differently (design/model.md, "Numbers in programs"); a block
 //! that omits an axis whose value must change gets that word added.
 
+mod exact;
 mod gcodes;
 mod summary;
 mod words;
+mod writing;
 
 pub use summary::{Extreme, Summary};
 
 use crate::diag::{Diagnostic, Error};
 use crate::kinematics::{Kinematics, MAX_AXES, Model, SolveOptions};
 use crate::model::{AxisKind, ErrorModel, Machine};
-use crate::nc::number::{decimals_for, same_text, scaled, write_fixed};
+use crate::nc::number::{decimals_for, scaled};
 use crate::nc::{self, Token, TokenKind, Value};
+use exact::Position;
 use gcodes::GCode;
-use words::BlockMotion;
+use words::{BlockMotion, MoveKind};
 
 /// Millimetres per inch.
 const INCH: f64 = 25.4;
@@ -71,11 +74,20 @@ pub struct Compensator<'m> {
 #[derive(Debug, Clone)]
 struct State {
     inch: bool,
+    /// G91: axis words are increments.
+    incremental: bool,
     motion: Option<GCode>,
     /// Programmed (nominal) axis values, mm and degrees.
     nominal: [f64; MAX_AXES],
+    /// The same, exactly (for G91: no drift).
+    nominal_exact: [Position; MAX_AXES],
     /// What the machine was last told, mm and degrees.
     emitted: [f64; MAX_AXES],
+    /// The same, exactly: the written absolute value, or the sum of the written increments.
+    written: [Position; MAX_AXES],
+    /// Bit k: variable k is at a position whose program coordinate nccomp does not know
+    /// (after G28, G30 or G53), until a G90 block programs it.
+    unknown: u32,
     /// Bit k: variable k has been programmed.
     programmed: u32,
     /// Decimals of the last word written for each variable.
@@ -90,6 +102,8 @@ struct State {
     /// machine may be microns off what `emitted` says: the next block writes it.
     unsettled: u32,
     optional_line: [usize; MAX_AXES],
+    /// Line of the optional block that left variable k unsettled.
+    corrected_line: [usize; MAX_AXES],
 }
 
 /// A change to one line: replace a byte range, or insert at a position (empty range).
@@ -194,9 +208,13 @@ impl<'m> Compensator<'m> {
         let n = self.kin.len();
         let mut state = State {
             inch: false,
+            incremental: false,
             motion: None,
             nominal: [0.0; MAX_AXES],
+            nominal_exact: [Position::Units(0); MAX_AXES],
             emitted: [0.0; MAX_AXES],
+            written: [Position::Units(0); MAX_AXES],
+            unknown: 0,
             programmed: 0,
             decimals: [0; MAX_AXES],
             length: self.machine.tool.length,
@@ -205,6 +223,7 @@ impl<'m> Compensator<'m> {
             uncertain: 0,
             unsettled: 0,
             optional_line: [0; MAX_AXES],
+            corrected_line: [0; MAX_AXES],
         };
         for v in 0..n {
             state.decimals[v] = self.res_decimals(v, false);
@@ -270,24 +289,94 @@ impl<'m> Compensator<'m> {
         let Some(BlockMotion {
             axis_words,
             optional,
+            kind,
         }) = self.read_block(line, tokens, state, at)?
         else {
             return Ok(());
         };
         let n = self.kin.len();
-        // New nominal values.
+        if kind != MoveKind::Program {
+            // G53, G28, G30: the block stays as it is, and the axes it sends to machine
+            // positions (all of them for a bare G28/G30) leave the program's coordinates.
+            let mut gone = (0..n)
+                .filter(|&v| axis_words[v].is_some())
+                .fold(0u32, |m, v| m | 1 << v);
+            if kind == MoveKind::Home && gone == 0 {
+                gone = (0..n).fold(0u32, |m, v| m | 1 << v);
+            }
+            state.unknown |= gone;
+            state.uncertain &= !gone;
+            state.unsettled &= !gone;
+            return Ok(());
+        }
+        let first_col = axis_words
+            .iter()
+            .flatten()
+            .map(|&i| tokens[i].span.start)
+            .min()
+            .unwrap_or(0);
+        if optional && state.incremental {
+            return Err(at(
+                first_col,
+                "an optional block (/) in incremental mode (G91) cannot be compensated: whether it runs shifts every later incremental move, and no correction is right for both settings of block delete (program the block in G90)".into(),
+            ));
+        }
+        // New nominal values; `units[v]`: a G91 word's value exactly.
+        let mut units = [0i128; MAX_AXES];
         for (v, word) in axis_words.iter().enumerate().take(n) {
-            if let Some(i) = *word {
-                let value = word_number(&tokens[i]);
-                state.nominal[v] = if state.inch && self.is_linear(v) {
-                    value * INCH
-                } else {
-                    value
+            let Some(i) = *word else { continue };
+            let t = &tokens[i];
+            let TokenKind::Word(w) = &t.kind else {
+                unreachable!()
+            };
+            let Value::Number { value, decimals } = w.value else {
+                unreachable!()
+            };
+            let inch = state.inch && self.is_linear(v);
+            let bit = 1u32 << v;
+            if state.incremental {
+                let u = exact::number_units(
+                    value,
+                    decimals,
+                    &line.content[w.value_span.clone()],
+                    inch,
+                )
+                .filter(|_| decimals <= exact::MAX_DECIMALS)
+                .ok_or_else(|| {
+                    at(
+                        t.span.start,
+                        format!(
+                            "{} has {decimals} decimals; an incremental (G91) word can have at most {} (nccomp sums increments exactly)",
+                            w.letter as char,
+                            exact::MAX_DECIMALS
+                        ),
+                    )
+                })?;
+                if state.programmed & bit == 0 && state.unknown & bit == 0 {
+                    summary.note_incremental_from_home(self.axis_name(v), line.number);
+                }
+                units[v] = u;
+                state.nominal_exact[v] = state.nominal_exact[v].add(u);
+                state.nominal[v] = exact::to_f64(state.nominal_exact[v].units());
+            } else {
+                state.nominal[v] = if inch { value * INCH } else { value };
+                state.nominal_exact[v] = Position::Decimal {
+                    value,
+                    decimals,
+                    inch,
                 };
+                // An optional block cannot make an axis known: with block delete on it
+                // does not run.
+                if !optional {
+                    state.unknown &= !bit;
+                }
             }
         }
         // Programmed values outside the travel are the program's own fault.
         for (v, word) in axis_words.iter().enumerate().take(n) {
+            if state.unknown & (1 << v) != 0 {
+                continue;
+            }
             if let Some([lo, hi]) = self.travel(v)
                 && !(lo..=hi).contains(&state.nominal[v])
                 && !self.options.allow_limit_violations
@@ -302,6 +391,44 @@ impl<'m> Compensator<'m> {
                     ),
                 ));
             }
+        }
+        if state.unknown != 0 {
+            // The pose cannot be evaluated: the block is written as it is, and what the
+            // machine is told is what the program says.
+            for (v, word) in axis_words.iter().enumerate().take(n) {
+                let bit = 1u32 << v;
+                let Some(i) = *word else { continue };
+                if state.unknown & bit != 0 {
+                    continue;
+                }
+                if let TokenKind::Word(w) = &tokens[i].kind
+                    && let Value::Number { decimals, .. } = w.value
+                {
+                    state.decimals[v] = decimals.max(self.res_decimals(v, state.inch));
+                }
+                state.programmed |= bit;
+                if state.incremental {
+                    // The optional-block bits stay: an increment does not settle them.
+                    state.written[v] = state.written[v].add(units[v]);
+                    state.emitted[v] = exact::to_f64(state.written[v].units());
+                } else {
+                    state.written[v] = state.nominal_exact[v];
+                    state.emitted[v] = state.nominal[v];
+                    state.unsettled &= !bit;
+                    if optional {
+                        state.uncertain |= bit;
+                        state.optional_line[v] = line.number;
+                    } else {
+                        state.uncertain &= !bit;
+                    }
+                }
+            }
+            let unknown: Vec<&str> = (0..n)
+                .filter(|&v| state.unknown & (1 << v) != 0)
+                .map(|v| self.axis_name(v))
+                .collect();
+            summary.note_uncompensated(line.number, &unknown);
+            return Ok(());
         }
         // Solve; an axis the correction would push past a travel limit it was programmed
         // within is held at its programmed value instead (the others still put the tip in
@@ -374,94 +501,30 @@ impl<'m> Compensator<'m> {
             }
         }
         // Rewrite present words, add missing ones.
-        for v in 0..n {
-            let to_units = |x: f64| {
-                if state.inch && self.is_linear(v) {
-                    x / INCH
-                } else {
-                    x
-                }
-            };
-            let from_units = |x: f64| {
-                if state.inch && self.is_linear(v) {
-                    x * INCH
-                } else {
-                    x
-                }
-            };
-            let value = to_units(sol.q[v]);
-            match axis_words[v] {
-                Some(i) => {
-                    let t = &tokens[i];
-                    let TokenKind::Word(w) = &t.kind else {
-                        unreachable!()
-                    };
-                    let Value::Number {
-                        value: old,
-                        decimals,
-                    } = w.value
-                    else {
-                        unreachable!()
-                    };
-                    let d = decimals.max(self.res_decimals(v, state.inch));
-                    state.decimals[v] = d;
-                    if same_text(old, value, d) {
-                        state.emitted[v] = from_units(old);
-                    } else {
-                        let mut text = String::new();
-                        write_fixed(value, d, &mut text);
-                        state.emitted[v] = from_units(text.parse().unwrap_or(value));
-                        edits.push(Edit {
-                            at: w.value_span.clone(),
-                            text,
-                        });
-                        summary.words_changed += 1;
-                    }
-                    state.programmed |= 1 << v;
-                    state.unsettled &= !(1 << v);
-                    if optional {
-                        state.uncertain |= 1 << v;
-                        state.optional_line[v] = line.number;
-                    } else {
-                        state.uncertain &= !(1 << v);
-                    }
-                }
-                None => {
-                    let d = state.decimals[v].max(self.res_decimals(v, state.inch));
-                    let unsettled = state.unsettled & (1 << v) != 0 && !optional;
-                    if unsettled || !same_text(to_units(state.emitted[v]), value, d) {
-                        if state.uncertain & (1 << v) != 0 && !optional {
-                            let letter = self.letter(v) as char;
-                            let col = axis_words
-                                .iter()
-                                .flatten()
-                                .map(|&i| tokens[i].span.start)
-                                .min()
-                                .unwrap_or(0);
-                            return Err(at(
-                                col,
-                                format!(
-                                    "this block needs a corrected {letter} word, but {letter} was last set by the optional block (/) at line {}: adding it would change what the program does when block delete is on (program {letter} in this block)",
-                                    state.optional_line[v]
-                                ),
-                            ));
-                        }
-                        if optional {
-                            state.unsettled |= 1 << v;
-                        } else {
-                            state.unsettled &= !(1 << v);
-                        }
-                        let mut text = String::new();
-                        write_fixed(value, d, &mut text);
-                        state.emitted[v] = from_units(text.parse().unwrap_or(value));
-                        edits.push(self.insertion(line.content, tokens, &axis_words, v, &text));
-                        summary.words_added += 1;
-                        if state.programmed & (1 << v) == 0 {
-                            summary.note_assumed_home(self.axis_name(v), line.number);
-                        }
-                    }
-                }
-            }
+        if state.incremental {
+            self.write_increments(
+                line,
+                tokens,
+                &axis_words,
+                &units,
+                &sol.q,
+                state,
+                edits,
+                summary,
+                at,
+            )?;
+        } else {
+            self.write_positions(
+                line,
+                tokens,
+                &axis_words,
+                &sol.q,
+                optional,
+                state,
+                edits,
+                summary,
+                at,
+            )?;
         }
         // Travel limits, on what the machine is now told.
         for (v, word) in axis_words.iter().enumerate().take(n) {
@@ -598,12 +661,4 @@ fn code_text(content: &[u8], t: &Token) -> String {
     String::from_utf8_lossy(&content[t.span.clone()])
         .trim()
         .to_string()
-}
-
-/// The number of a token known to be a numeric word.
-fn word_number(t: &Token) -> f64 {
-    match &t.kind {
-        TokenKind::Word(w) => w.number().unwrap_or(0.0),
-        _ => 0.0,
-    }
 }

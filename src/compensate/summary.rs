@@ -50,6 +50,15 @@ pub struct Summary {
     pub at_limit: Vec<(String, usize, usize)>,
     /// Travel-limit violations written anyway (--allow-limit-violations).
     pub limit_violations: Vec<String>,
+    /// Blocks that move but were written unchanged because an axis was at a position
+    /// whose program coordinate is not known (after G28, G30 or G53), the first of them,
+    /// and the axes that were unknown in them.
+    pub uncompensated_blocks: usize,
+    pub first_uncompensated: usize,
+    pub unknown_axes: Vec<String>,
+    /// Axes moved by an incremental (G91) word before the program set them, from their
+    /// home value 0, with the first line where that happened.
+    pub incremental_from_home: Vec<(String, usize)>,
 }
 
 impl Summary {
@@ -84,6 +93,24 @@ impl Summary {
     pub(crate) fn note_assumed_home(&mut self, axis: &str, line: usize) {
         if !self.assumed_home.iter().any(|(a, _)| a == axis) {
             self.assumed_home.push((axis.to_string(), line));
+        }
+    }
+
+    pub(crate) fn note_uncompensated(&mut self, line: usize, unknown: &[&str]) {
+        if self.uncompensated_blocks == 0 {
+            self.first_uncompensated = line;
+        }
+        self.uncompensated_blocks += 1;
+        for axis in unknown {
+            if !self.unknown_axes.iter().any(|a| a == axis) {
+                self.unknown_axes.push(axis.to_string());
+            }
+        }
+    }
+
+    pub(crate) fn note_incremental_from_home(&mut self, axis: &str, line: usize) {
+        if !self.incremental_from_home.iter().any(|(a, _)| a == axis) {
+            self.incremental_from_home.push((axis.to_string(), line));
         }
     }
 
@@ -170,6 +197,31 @@ impl fmt::Display for Summary {
                 "\nnote: error tables were read beyond their ends in {} (first at line {}); the end values were used",
                 count(self.beyond_table_blocks, "block"),
                 self.first_beyond_table
+            )?;
+        }
+        if self.uncompensated_blocks > 0 {
+            let (noun, verb, pronoun) = if self.unknown_axes.len() == 1 {
+                ("axis", "was", "it")
+            } else {
+                ("axes", "were", "them")
+            };
+            write!(
+                f,
+                "\nnote: {} (first at line {}) {} written uncompensated: {noun} {} {verb} at a position nccomp does not know (after G28, G30 or G53) until a G90 block programmed {pronoun}",
+                count(self.uncompensated_blocks, "block"),
+                self.first_uncompensated,
+                if self.uncompensated_blocks == 1 {
+                    "was"
+                } else {
+                    "were"
+                },
+                self.unknown_axes.join(", ")
+            )?;
+        }
+        for (axis, line) in &self.incremental_from_home {
+            write!(
+                f,
+                "\nnote: axis {axis} was moved incrementally (G91) at line {line} before the program set it; its home value 0 was taken as the start"
             )?;
         }
         for (axis, line) in &self.assumed_home {

@@ -13,6 +13,20 @@ pub(super) struct BlockMotion {
     pub axis_words: [Option<usize>; MAX_AXES],
     /// The block starts with a block delete `/`: it runs only with the switch off.
     pub optional: bool,
+    pub kind: MoveKind,
+}
+
+/// How a block moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum MoveKind {
+    /// A G0/G1 move in program coordinates: compensated.
+    Program,
+    /// G53: the axis words are machine coordinates. Left untouched; the axes it names end
+    /// at an unknown program position.
+    Machine,
+    /// G28/G30: the axes named (all of them if none is) go to a reference point. Left
+    /// untouched; those axes end at an unknown program position.
+    Home,
 }
 
 impl Compensator<'_> {
@@ -41,6 +55,8 @@ impl Compensator<'_> {
         let mut o_word = None;
         let mut other_text = None;
         let mut arc_word: Option<(char, usize)> = None;
+        let mut special: Option<MoveKind> = None;
+        let mut set_reference: Option<usize> = None;
         for (i, t) in tokens.iter().enumerate() {
             let w = match &t.kind {
                 TokenKind::Word(w) => w,
@@ -121,7 +137,25 @@ impl Compensator<'_> {
                         state.work_offset = Some(code10);
                     }
                     GCode::CancelCycle => state.motion = None,
-                    GCode::Absolute | GCode::Harmless => {}
+                    g @ (GCode::Absolute | GCode::Incremental) => {
+                        let incremental = g == GCode::Incremental;
+                        if optional && incremental != state.incremental {
+                            return Err(at(
+                                t.span.start,
+                                format!(
+                                    "{} in an optional block (/) cannot be compensated: whether the block runs would decide how every later axis word is read (move the distance mode out of the optional block)",
+                                    code_text(line.content, t)
+                                ),
+                            ));
+                        }
+                        state.incremental = incremental;
+                    }
+                    GCode::MachineCoordinates => {
+                        special.get_or_insert(MoveKind::Machine);
+                    }
+                    GCode::ReturnHome => special = Some(MoveKind::Home),
+                    GCode::SetReference => set_reference = Some(i),
+                    GCode::Harmless => {}
                 },
                 'M' => {
                     if let Some(what) = gcodes::unsupported_m(code10) {
@@ -241,6 +275,29 @@ impl Compensator<'_> {
             ));
         }
         let moves = axis_words[..n].iter().any(Option::is_some);
+        if let Some(i) = set_reference
+            && moves
+        {
+            return Err(at(
+                tokens[i].span.start,
+                format!(
+                    "{} with axis words cannot be compensated: setting a reference point takes none (expected the code on its own)",
+                    code_text(line.content, &tokens[i])
+                ),
+            ));
+        }
+        match special {
+            // G53 without axis words moves nothing.
+            Some(MoveKind::Machine) if !moves => return Ok(None),
+            Some(kind) => {
+                return Ok(Some(BlockMotion {
+                    axis_words,
+                    optional,
+                    kind,
+                }));
+            }
+            None => {}
+        }
         if dwell || !moves {
             return Ok(None);
         }
@@ -254,6 +311,7 @@ impl Compensator<'_> {
         Ok(Some(BlockMotion {
             axis_words,
             optional,
+            kind: MoveKind::Program,
         }))
     }
 }

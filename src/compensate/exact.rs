@@ -1,0 +1,292 @@
+//! Exact positions for incremental programs.
+//!
+//! In G91 every axis word is a difference, and the machine's position is the sum of all the
+//! differences it was told. Summing floats would drift over a long program, so the pass
+//! keeps programmed and written positions as integers of a fixed small unit and writes
+//! each increment as the exact difference between two written absolute positions: the sum
+//! of the written increments is then exactly the rounded compensated position, however
+//! many blocks there are.
+
+use crate::nc::number::{fixed, scaled};
+
+/// Positions are integers of 10^-SCALE mm (or degree). An inch word with `d` decimals is
+/// exactly `254 · 10^(SCALE − d − 1)` units per last digit, so inch words are exact too.
+pub(super) const SCALE: u8 = 13;
+
+/// The most decimals an incremental word may have (and an added one gets).
+pub(super) const MAX_DECIMALS: u8 = 12;
+
+/// A number's text `[+-]?(digits[.digits?]|.digits)` as its digits and decimals, exactly.
+pub(super) fn parse_decimal(text: &[u8]) -> Option<(i128, u8)> {
+    let (negative, digits) = match text.split_first()? {
+        (b'-', rest) => (true, rest),
+        (b'+', rest) => (false, rest),
+        _ => (false, text),
+    };
+    let mut mantissa: i128 = 0;
+    let mut decimals: Option<u8> = None;
+    let mut any = false;
+    for &b in digits {
+        match b {
+            b'0'..=b'9' => {
+                mantissa = mantissa
+                    .checked_mul(10)?
+                    .checked_add(i128::from(b - b'0'))?;
+                any = true;
+                if let Some(d) = decimals.as_mut() {
+                    *d = d.checked_add(1)?;
+                }
+            }
+            b'.' if decimals.is_none() => decimals = Some(0),
+            _ => return None,
+        }
+    }
+    any.then_some((
+        if negative { -mantissa } else { mantissa },
+        decimals.unwrap_or(0),
+    ))
+}
+
+/// Powers of ten up to 10^SCALE.
+const POW10: [i128; SCALE as usize + 1] = {
+    let mut p = [1i128; SCALE as usize + 1];
+    let mut i = 1;
+    while i < p.len() {
+        p[i] = p[i - 1] * 10;
+        i += 1;
+    }
+    p
+};
+
+/// Units in one step of the last digit of a word with `decimals` decimals, in inch or not.
+pub(super) fn step(decimals: u8, inch: bool) -> Option<i128> {
+    if inch {
+        let e = SCALE.checked_sub(decimals)?.checked_sub(1)?;
+        Some(254 * POW10[usize::from(e)])
+    } else {
+        Some(POW10[usize::from(SCALE.checked_sub(decimals)?)])
+    }
+}
+
+/// A written number in units (mm or degrees), if it is exactly representable.
+pub(super) fn units(mantissa: i128, decimals: u8, inch: bool) -> Option<i128> {
+    mantissa.checked_mul(step(decimals, inch)?)
+}
+
+/// A number with `decimals` decimals, read as `value` from `text`, in units: from the
+/// float where that is certainly exact (the common case, cheap), else from the text.
+pub(super) fn number_units(value: f64, decimals: u8, text: &[u8], inch: bool) -> Option<i128> {
+    match scaled(value, decimals) {
+        Some(k) => units(k.into(), decimals, inch),
+        None => parse_decimal(text).and_then(|(k, d)| units(k, d, inch)),
+    }
+}
+
+/// A position kept exactly, and cheaply: a G90 word, or a value written in G90, stays the
+/// decimal it is and becomes units only when a G91 block needs it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Position {
+    /// The number `write_fixed(value, decimals)` prints (for a word read from a program:
+    /// the word), in inch or not.
+    Decimal {
+        value: f64,
+        decimals: u8,
+        inch: bool,
+    },
+    Units(i128),
+}
+
+impl Position {
+    /// In units; the nearest for a number with more digits than the units hold.
+    pub(super) fn units(self) -> i128 {
+        match self {
+            Position::Units(u) => u,
+            Position::Decimal {
+                value,
+                decimals,
+                inch,
+            } => round_to(value, decimals)
+                .and_then(|k| units(k, decimals, inch))
+                .unwrap_or_else(|| from_f64(if inch { value * 25.4 } else { value })),
+        }
+    }
+
+    /// Moved by `increment` units.
+    pub(super) fn add(self, increment: i128) -> Position {
+        Position::Units(self.units().saturating_add(increment))
+    }
+}
+
+/// Units as mm or degrees: the nearest f64, as parsing the number's text gives it (so a
+/// position reached in G91 is the same number as the G90 word for it).
+pub(super) fn to_f64(units: i128) -> f64 {
+    if units.unsigned_abs() < 1 << 53 {
+        // Both exact, and IEEE division rounds correctly.
+        units as f64 / 10f64.powi(SCALE.into())
+    } else {
+        let mut s = String::new();
+        write_digits(units, SCALE, &mut s);
+        s.parse().unwrap_or(f64::NAN)
+    }
+}
+
+/// The nearest units to a value in mm or degrees (for numbers that are not exact).
+pub(super) fn from_f64(x: f64) -> i128 {
+    (x * 10f64.powi(SCALE.into())).round() as i128
+}
+
+/// `x` rounded to `decimals` decimals, as the integer of its digits: exactly what
+/// `write_fixed` prints (and so what a G90 word would be).
+pub(super) fn round_to(x: f64, decimals: u8) -> Option<i128> {
+    match scaled(x, decimals) {
+        Some(k) => Some(k.into()),
+        // Within a hair of a tie, or large: std's exact formatting decides.
+        None if x.is_finite() => parse_decimal(fixed(x, decimals).as_bytes()).map(|(k, _)| k),
+        None => None,
+    }
+}
+
+/// `a / b` rounded to the nearest integer, halves away from zero (`b` > 0).
+fn div_round(a: i128, b: i128) -> i128 {
+    let q = a.div_euclid(b);
+    let r = a.rem_euclid(b);
+    if 2 * r > b || (2 * r == b && a > 0) {
+        q + 1
+    } else {
+        q
+    }
+}
+
+/// The increment from the written position `from` (units) to `target` (in the word's own
+/// unit, inch or not) rounded to `decimals`, as (digits, decimals). The increment is exact
+/// when it can be: if `from` has finer digits than `decimals` (a word kept with more
+/// decimals, say) the increment gets as many as it needs, up to [`MAX_DECIMALS`]. Only a
+/// position mixed from inch and mm words may have none; then the nearest at `decimals`
+/// is taken, and the next block starts again from the exact position written.
+pub(super) fn increment(from: i128, target: f64, decimals: u8, inch: bool) -> Option<(i128, u8)> {
+    let t = units(round_to(target, decimals)?, decimals, inch)?;
+    let delta = t - from;
+    for d in decimals..=MAX_DECIMALS {
+        let s = step(d, inch)?;
+        if delta % s == 0 {
+            return Some((delta / s, d));
+        }
+    }
+    Some((div_round(delta, step(decimals, inch)?), decimals))
+}
+
+/// Append `mantissa · 10^-decimals` with exactly `decimals` digits after the point (no
+/// point for 0), never a negative zero: as `write_fixed` writes numbers.
+pub(super) fn write_digits(mantissa: i128, decimals: u8, out: &mut String) {
+    if mantissa < 0 {
+        out.push('-');
+    }
+    let digits = mantissa.unsigned_abs().to_string();
+    let d = usize::from(decimals);
+    if digits.len() <= d {
+        out.push('0');
+        if d > 0 {
+            out.push('.');
+            out.extend(std::iter::repeat_n('0', d - digits.len()));
+        }
+        out.push_str(&digits);
+    } else {
+        let split = digits.len() - d;
+        out.push_str(&digits[..split]);
+        if d > 0 {
+            out.push('.');
+            out.push_str(&digits[split..]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decimals_are_read_exactly() {
+        assert_eq!(parse_decimal(b"12.50"), Some((1250, 2)));
+        assert_eq!(parse_decimal(b"-.5"), Some((-5, 1)));
+        assert_eq!(parse_decimal(b"+3."), Some((3, 0)));
+        assert_eq!(parse_decimal(b"7"), Some((7, 0)));
+        assert_eq!(parse_decimal(b"."), None);
+        assert_eq!(parse_decimal(b"1.2.3"), None);
+        assert_eq!(parse_decimal(b""), None);
+    }
+
+    #[test]
+    fn inch_words_are_exact_in_mm() {
+        // 1.000001 inch = 25.4000254 mm.
+        assert_eq!(units(1_000_001, 6, true), Some(254_000_254_000_000));
+        assert_eq!(units(1, 12, true), Some(254));
+        assert_eq!(units(1, 13, true), None);
+        assert_eq!(units(1, 13, false), Some(1));
+    }
+
+    #[test]
+    fn increments_land_exactly_on_the_rounded_target() {
+        let from = units(100_005, 5, false).unwrap(); // 1.00005 written before
+        // Target 2.0 at 4 decimals: the increment needs the 5th decimal to land on 2.0000.
+        assert_eq!(increment(from, 2.0, 4, false), Some((99_995, 5)));
+        assert_eq!(increment(0, 0.123449, 4, false), Some((1234, 4)));
+        assert_eq!(
+            increment(units(1, 4, false).unwrap(), -0.0001, 4, false),
+            Some((-2, 4))
+        );
+        // A position written in mm, continued in inch: no exact inch increment, nearest.
+        let from = units(1, 0, false).unwrap(); // 1 mm
+        let (k, d) = increment(from, 1.0, 6, true).unwrap();
+        assert_eq!((k, d), (960_630, 6)); // 0.960630 inch + 1 mm = 25.400002 mm
+    }
+
+    #[test]
+    fn positions_read_as_their_text() {
+        for text in [
+            "123.4567",
+            "-899.9999",
+            "1234.5678",
+            "-98765.4321",
+            "2067.336",
+            "0.0001",
+        ] {
+            let (k, d) = parse_decimal(text.as_bytes()).unwrap();
+            let x: f64 = text.parse().unwrap();
+            assert_eq!(to_f64(units(k, d, false).unwrap()), x, "{text}");
+        }
+    }
+
+    /// The arithmetic of G91 on its own, over a million blocks: a target that wanders by
+    /// small steps plus a correction of microns, written as increments; the sum of the
+    /// increments is at every step exactly the rounded target.
+    #[test]
+    fn a_million_increments_do_not_drift() {
+        let mut nominal: i128 = units(-1234567, 4, false).unwrap();
+        let mut written: i128 = 0;
+        let mut words = 0usize;
+        for i in 0..1_000_000u32 {
+            nominal += units([13, -7, 3, 11][i as usize % 4], 4, false).unwrap();
+            let x = to_f64(nominal);
+            let target = x + 0.004 * (x * 0.01).sin() + 1e-7 * f64::from(i % 97);
+            let (k, d) = increment(written, target, 4, false).unwrap();
+            assert_eq!(d, 4);
+            written += units(k, d, false).unwrap();
+            words += usize::from(k != 0);
+            assert_eq!(
+                written,
+                units(round_to(target, 4).unwrap(), 4, false).unwrap()
+            );
+        }
+        assert!(words > 900_000);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn digits_print_as_write_fixed(k in -10_000_000_000i64..10_000_000_000, d in 0u8..9) {
+            let mut s = String::new();
+            write_digits(k.into(), d, &mut s);
+            proptest::prop_assert_eq!(&s, &fixed(k as f64 / 10f64.powi(d.into()), d));
+            proptest::prop_assert_eq!(parse_decimal(s.as_bytes()), Some((i128::from(k), d)));
+        }
+    }
+}
