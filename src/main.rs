@@ -65,6 +65,19 @@ struct CompensateArgs {
     /// warning (by default such a block is an error).
     #[arg(long)]
     allow_limit_violations: bool,
+    /// Split G1 moves whose compensated path strays more than this (mm) from the nominal
+    /// path between block ends, by inserting blocks (off by default: one block out for
+    /// every block in).
+    #[arg(long, value_name = "MM")]
+    tolerance: Option<f64>,
+    /// With --tolerance: the tool direction's tolerance along the path, in µrad.
+    #[arg(
+        long,
+        value_name = "URAD",
+        default_value_t = 10.0,
+        requires = "tolerance"
+    )]
+    angular_tolerance: f64,
     /// Print no summary.
     #[arg(long, short = 'q')]
     quiet: bool,
@@ -112,6 +125,13 @@ fn compensate(args: &CompensateArgs) -> nccomp::Result<()> {
         tool_chain: args.tool_chain.clone(),
         allow_limit_violations: args.allow_limit_violations,
         hold: args.hold.clone(),
+        path: args
+            .tolerance
+            .map(|mm| nccomp::kinematics::path::PathTolerance {
+                position: mm,
+                direction: args.angular_tolerance * 1e-6,
+                ..Default::default()
+            }),
         ..Options::default()
     };
     let comp = Compensator::new(&machine, &errors, options)?;

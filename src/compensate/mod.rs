@@ -7,6 +7,7 @@
 
 mod exact;
 mod gcodes;
+mod split;
 mod summary;
 mod words;
 mod writing;
@@ -41,6 +42,9 @@ pub struct Options {
     /// Axes (by name or program letter) that keep their programmed values: not positioned
     /// by the program (a lathe spindle C while turning) or not to be touched.
     pub hold: Vec<String>,
+    /// Split G1 moves whose compensated path strays further than this from the nominal
+    /// path between their ends; `None`: one block out for every block in.
+    pub path: Option<crate::kinematics::path::PathTolerance>,
 }
 
 impl Default for Options {
@@ -52,6 +56,7 @@ impl Default for Options {
             max_correction: (10.0, 2.0),
             max_errors: 20,
             hold: Vec::new(),
+            path: None,
         }
     }
 }
@@ -77,6 +82,12 @@ struct State {
     /// G91: axis words are increments.
     incremental: bool,
     motion: Option<GCode>,
+    /// The motion mode is G0 (rapid), not G1.
+    rapid: bool,
+    /// G93: F words are inverse times.
+    inverse_time: bool,
+    /// The last N number seen and its digits (for numbering inserted blocks).
+    last_n: Option<(u64, usize)>,
     /// Programmed (nominal) axis values, mm and degrees.
     nominal: [f64; MAX_AXES],
     /// The same, exactly (for G91: no drift).
@@ -210,6 +221,9 @@ impl<'m> Compensator<'m> {
             inch: false,
             incremental: false,
             motion: None,
+            rapid: false,
+            inverse_time: false,
+            last_n: None,
             nominal: [0.0; MAX_AXES],
             nominal_exact: [Position::Units(0); MAX_AXES],
             emitted: [0.0; MAX_AXES],
@@ -243,6 +257,19 @@ impl<'m> Compensator<'m> {
                 if errors.len() >= self.options.max_errors {
                     break;
                 }
+            }
+            if let Some(number) = tokens.iter().find_map(|t| match &t.kind {
+                TokenKind::Word(w) if w.letter == b'N' => {
+                    let digits = &line.content[w.value_span.clone()];
+                    std::str::from_utf8(digits)
+                        .ok()?
+                        .parse::<u64>()
+                        .ok()
+                        .map(|v| (v, digits.len()))
+                }
+                _ => None,
+            }) {
+                state.last_n = Some(number);
             }
             if edits.is_empty() {
                 out.extend_from_slice(line.content);
@@ -321,6 +348,8 @@ impl<'m> Compensator<'m> {
                 "an optional block (/) in incremental mode (G91) cannot be compensated: whether it runs shifts every later incremental move, and no correction is right for both settings of block delete (program the block in G90)".into(),
             ));
         }
+        let previous = state.nominal;
+        let start_known = state.programmed | state.unknown;
         // New nominal values; `units[v]`: a G91 word's value exactly.
         let mut units = [0i128; MAX_AXES];
         for (v, word) in axis_words.iter().enumerate().take(n) {
@@ -499,6 +528,17 @@ impl<'m> Compensator<'m> {
                     ),
                 ));
             }
+        }
+        // Split the move where its path strays (G1 from a known start, in G90).
+        if let Some(tolerance) = &self.options.path
+            && !state.rapid
+            && !state.incremental
+            && !optional
+            && (0..n).all(|v| start_known & (1 << v) != 0)
+        {
+            self.split_move(
+                tolerance, line, tokens, &previous, &sol.q, hold, state, edits, summary,
+            );
         }
         // Rewrite present words, add missing ones.
         if state.incremental {

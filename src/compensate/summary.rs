@@ -48,6 +48,14 @@ pub struct Summary {
     /// Axes held at their programmed value because the correction would have pushed them
     /// past a travel limit: (axis, blocks, first line).
     pub at_limit: Vec<(String, usize, usize)>,
+    /// Blocks inserted to keep split moves on their path, the moves split, and the first.
+    pub blocks_added: usize,
+    pub moves_split: usize,
+    pub first_split: usize,
+    /// Moves that needed a split but were kept whole (M or T words, G93 without F), and
+    /// the first.
+    pub unsplit_moves: usize,
+    pub first_unsplit: usize,
     /// Travel-limit violations written anyway (--allow-limit-violations).
     pub limit_violations: Vec<String>,
     /// Blocks that move but were written unchanged because an axis was at a position
@@ -112,6 +120,21 @@ impl Summary {
         if !self.incremental_from_home.iter().any(|(a, _)| a == axis) {
             self.incremental_from_home.push((axis.to_string(), line));
         }
+    }
+
+    pub(crate) fn note_split(&mut self, line: usize, added: usize) {
+        if self.moves_split == 0 {
+            self.first_split = line;
+        }
+        self.moves_split += 1;
+        self.blocks_added += added;
+    }
+
+    pub(crate) fn note_unsplit(&mut self, line: usize) {
+        if self.unsplit_moves == 0 {
+            self.first_unsplit = line;
+        }
+        self.unsplit_moves += 1;
     }
 
     pub(crate) fn note_at_limit(&mut self, axis: &str, line: usize) {
@@ -182,6 +205,23 @@ impl fmt::Display for Summary {
                 count(self.singular_blocks, "block"),
                 self.held_axes.join(", "),
                 urad(self.singular_direction)
+            )?;
+        }
+        if self.moves_split > 0 {
+            write!(
+                f,
+                "\n{} split to keep them on their path (first at line {}): {} added",
+                count(self.moves_split, "move"),
+                self.first_split,
+                count(self.blocks_added, "block")
+            )?;
+        }
+        if self.unsplit_moves > 0 {
+            write!(
+                f,
+                "\nnote: {} kept whole though their path strays (M or T words, or G93 without F; first at line {})",
+                count(self.unsplit_moves, "move"),
+                self.first_unsplit
             )?;
         }
         for (axis, blocks, line) in &self.at_limit {

@@ -114,7 +114,10 @@ impl Compensator<'_> {
                             ),
                         ));
                     }
-                    g @ (GCode::Motion | GCode::Arc) => motion_in_block = Some((g, t.span.start)),
+                    g @ (GCode::Motion | GCode::Arc) => {
+                        motion_in_block = Some((g, t.span.start));
+                        state.rapid = code10 == 0;
+                    }
                     GCode::Dwell => dwell = true,
                     GCode::Inch => state.inch = true,
                     GCode::Millimetre => state.inch = false,
@@ -155,7 +158,11 @@ impl Compensator<'_> {
                     }
                     GCode::ReturnHome => special = Some(MoveKind::Home),
                     GCode::SetReference => set_reference = Some(i),
-                    GCode::Harmless => {}
+                    GCode::Harmless => match code10 {
+                        930 => state.inverse_time = true,
+                        940 | 950 => state.inverse_time = false,
+                        _ => {}
+                    },
                 },
                 'M' => {
                     if let Some(what) = gcodes::unsupported_m(code10) {

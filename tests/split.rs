@@ -1,0 +1,130 @@
+//! Splitting moves in the pass (--tolerance): inserted blocks in the program's style, on
+//! the nominal path, and a G93 move keeping its time.
+
+mod common;
+
+use common::{Lcg, ac_trunnion, random_errors};
+use nccomp::compensate::{Compensator, Options};
+use nccomp::kinematics::path::PathTolerance;
+use nccomp::kinematics::{Kinematics, Model};
+
+fn run(program: &str, path: Option<PathTolerance>) -> (String, nccomp::compensate::Summary) {
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = random_errors(&machine, &mut Lcg(17));
+    let comp = Compensator::new(
+        &machine,
+        &errors,
+        Options {
+            path,
+            ..Options::default()
+        },
+    )
+    .unwrap();
+    let mut out = Vec::new();
+    let summary = comp.run(program.as_bytes(), "p.nc", &mut out).unwrap();
+    (String::from_utf8(out).unwrap(), summary)
+}
+
+fn values(line: &str, q: &mut [f64; 5]) -> bool {
+    let mut moved = false;
+    for word in line.split('(').next().unwrap().split_whitespace() {
+        if let Some(k) = "XYZAC".find(&word[..1]) {
+            q[k] = word[1..].parse().unwrap();
+            moved = true;
+        }
+    }
+    moved
+}
+
+const PROGRAM: &str =
+    "N100 G0 X-200 Y-150 Z40 A-50 C10\nN200 G1 X200 Y150 Z60 A-10 C170 F800\nN300 X-150 A-80\n";
+
+#[test]
+fn without_a_tolerance_every_block_in_is_one_block_out() {
+    let (out, summary) = run(PROGRAM, None);
+    assert_eq!(out.lines().count(), 3);
+    assert_eq!(summary.blocks_added, 0);
+}
+
+#[test]
+fn long_moves_get_blocks_inserted_on_their_nominal_path() {
+    let (out, summary) = run(PROGRAM, Some(PathTolerance::default()));
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(
+        summary.blocks_added > 0 && lines.len() == 3 + summary.blocks_added,
+        "{out}"
+    );
+    // Inserted blocks take numbers in the gaps (N101, N102, ... and N201, ...), carry the
+    // block's G word and F, and come before the block they belong to.
+    assert!(lines[1].starts_with("N101 G1 "), "{out}");
+    assert!(lines[1].contains(" F800"), "{out}");
+    let n300 = lines.iter().position(|l| l.starts_with("N300")).unwrap();
+    assert!(lines[n300 - 1].starts_with("N2"), "{out}");
+    // Every inserted point is the compensated image of a point on the nominal path: the
+    // real machine there sits on the straight joint-space line of the nominal move.
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = random_errors(&machine, &mut Lcg(17));
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let (mut q, mut nominal) = ([0.0; 5], [0.0; 5]);
+    let input: Vec<&str> = PROGRAM.lines().collect();
+    let mut previous = [0.0; 5];
+    for line in &lines {
+        values(line, &mut q);
+        let is_original = input
+            .iter()
+            .any(|l| l.split(' ').next() == line.split(' ').next());
+        if is_original {
+            previous = nominal;
+            let original = input
+                .iter()
+                .find(|l| l.split(' ').next() == line.split(' ').next())
+                .unwrap();
+            values(original, &mut nominal);
+            continue;
+        }
+        // An inserted block: find s on the upcoming nominal move where the poses agree.
+        let number = |l: &str| l.split(' ').next().unwrap()[1..].parse::<u32>().unwrap();
+        let next = input.iter().find(|l| number(l) > number(line)).unwrap();
+        let mut target = nominal;
+        values(next, &mut target);
+        let (reached, _) = kin.pose(Model::Actual, &q, 0.0);
+        let off = |s: f64| {
+            let qn: Vec<f64> = (0..5)
+                .map(|k| nominal[k] + (target[k] - nominal[k]) * s)
+                .collect();
+            kin.pose(Model::Nominal, &qn, 0.0).0.deviation(&reached).0
+        };
+        // Coarse scan, then a ternary search around the best sample.
+        let coarse = (0..=400)
+            .min_by(|&a, &b| off(a as f64 / 400.0).total_cmp(&off(b as f64 / 400.0)))
+            .unwrap();
+        let (mut lo, mut hi) = (
+            ((coarse as f64) - 1.0) / 400.0,
+            ((coarse as f64) + 1.0) / 400.0,
+        );
+        for _ in 0..60 {
+            let (m1, m2) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
+            if off(m1) < off(m2) { hi = m2 } else { lo = m1 }
+        }
+        let best = off(0.5 * (lo + hi));
+        assert!(best < 1e-3, "{line}: {best} mm off the nominal path");
+        let _ = previous;
+    }
+}
+
+#[test]
+fn inverse_time_pieces_keep_the_moves_time() {
+    let program = "N10 G0 X-200 Y-150 Z40 A-50 C10\nN20 G93 G1 X200 Y150 Z60 A-10 C170 F2.5\n";
+    let (out, summary) = run(program, Some(PathTolerance::default()));
+    assert!(summary.blocks_added > 0, "{out}");
+    // Σ 1/F over the pieces = 1/2.5 min (to the written precision).
+    let minutes: f64 = out
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f = l.split_whitespace().find(|w| w.starts_with('F')).expect(l);
+            1.0 / f[1..].parse::<f64>().unwrap()
+        })
+        .sum();
+    assert!((minutes - 0.4).abs() < 1e-4, "{minutes} min\n{out}");
+}
