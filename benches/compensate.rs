@@ -55,6 +55,22 @@ fn bench(c: &mut Criterion) {
             comp.run(black_box(&src), "bench.nc", &mut out).unwrap()
         })
     });
+    let splitting = Compensator::new(
+        &machine,
+        &errors,
+        Options {
+            path: Some(nccomp::kinematics::path::PathTolerance::default()),
+            ..Options::default()
+        },
+    )
+    .unwrap();
+    group.bench_function("five-axis program, 100k blocks, split to 1 µm", |b| {
+        let mut out = Vec::with_capacity(src.len() * 2);
+        b.iter(|| {
+            out.clear();
+            splitting.run(black_box(&src), "bench.nc", &mut out).unwrap()
+        })
+    });
     group.bench_function("parse and emit only (lines + tokens)", |b| {
         let mut tokens = Vec::new();
         b.iter(|| {
