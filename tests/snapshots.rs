@@ -57,3 +57,8 @@ fn mill_turn_demo_upper_turret() {
     };
     insta::assert_snapshot!(compensate("mill_turn", "mill_turn_demo", options));
 }
+
+#[test]
+fn tcp_program_on_the_ac_trunnion() {
+    insta::assert_snapshot!(compensate("ac_trunnion", "ac_trunnion_tcp", Options::default()));
+}

@@ -19,6 +19,8 @@ pub enum GCode {
     Absolute,
     /// G91: axis words are increments from the previous programmed position.
     Incremental,
+    /// G43.4: tool-centre-point control with rotary words; takes an H word like G43.
+    ToolCentrePoint,
     /// G53: a move in machine coordinates, this block only. Left untouched; the axes it
     /// names end where nccomp does not know their program coordinates.
     MachineCoordinates,
@@ -72,7 +74,8 @@ pub fn classify(code10: i64) -> GCode {
         380..=389 => Unsupported("probing (G38.x)"),
         410 | 411 | 420 | 421 => Unsupported("cutter radius compensation (G41/G42)"),
         431 | 432 => Unsupported("a dynamic tool length offset (G43.1/G43.2)"),
-        434 | 435 => Unsupported("tool-centre-point control (G43.4/G43.5)"),
+        434 => ToolCentrePoint,
+        435 => Unsupported("tool-centre-point control with tool vectors (G43.5)"),
         520 => Unsupported("a local coordinate offset (G52)"),
         541 => Unsupported("an extended work offset (G54.1)"),
         680..=689 => Unsupported("coordinate rotation (G68)"),

@@ -9,6 +9,7 @@ mod exact;
 mod gcodes;
 mod split;
 mod summary;
+mod tcp;
 mod words;
 mod writing;
 
@@ -86,6 +87,11 @@ struct State {
     rapid: bool,
     /// G93: F words are inverse times.
     inverse_time: bool,
+    /// G43.4 is active: X, Y, Z words are the tool tip in the workpiece frame.
+    tcp: bool,
+    /// In TCP mode: the programmed tip, and the tip as written (mm).
+    tip_nominal: [f64; 3],
+    tip_written: [f64; 3],
     /// The last N number seen and its digits (for numbering inserted blocks).
     last_n: Option<(u64, usize)>,
     /// Programmed (nominal) axis values, mm and degrees.
@@ -224,6 +230,9 @@ impl<'m> Compensator<'m> {
             rapid: false,
             inverse_time: false,
             last_n: None,
+            tcp: false,
+            tip_nominal: [0.0; 3],
+            tip_written: [0.0; 3],
             nominal: [0.0; MAX_AXES],
             nominal_exact: [Position::Units(0); MAX_AXES],
             emitted: [0.0; MAX_AXES],
@@ -322,6 +331,18 @@ impl<'m> Compensator<'m> {
             return Ok(());
         };
         let n = self.kin.len();
+        if state.tcp && kind == MoveKind::Program {
+            return self.tcp_block(
+                line,
+                tokens,
+                &axis_words,
+                optional,
+                state,
+                edits,
+                summary,
+                at,
+            );
+        }
         if kind != MoveKind::Program {
             // G53, G28, G30: the block stays as it is, and the axes it sends to machine
             // positions (all of them for a bare G28/G30) leave the program's coordinates.

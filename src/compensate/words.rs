@@ -52,6 +52,7 @@ impl Compensator<'_> {
         let mut h_word: Option<(u32, usize)> = None;
         let mut g43 = false;
         let mut g49 = false;
+        let mut tcp_on = false;
         let mut o_word = None;
         let mut other_text = None;
         let mut arc_word: Option<(char, usize)> = None;
@@ -122,6 +123,10 @@ impl Compensator<'_> {
                     GCode::Inch => state.inch = true,
                     GCode::Millimetre => state.inch = false,
                     GCode::ToolLength => g43 = true,
+                    GCode::ToolCentrePoint => {
+                        g43 = true;
+                        tcp_on = true;
+                    }
                     GCode::ToolLengthOff => g49 = true,
                     GCode::WorkOffset => {
                         if let Some(prev) = state.work_offset
@@ -262,6 +267,10 @@ impl Compensator<'_> {
         }
         if g49 {
             state.length = self.machine.tool.length;
+            state.tcp = false;
+        }
+        if tcp_on && !state.tcp {
+            self.enter_tcp(state, at)?;
         }
         if let Some((g, _)) = motion_in_block {
             state.motion = Some(g);
