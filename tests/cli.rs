@@ -220,7 +220,7 @@ fn blocks_that_cannot_be_compensated_fail_without_touching_the_output() {
     let out_path = dir.join("out.nc");
     std::fs::write(&out_path, "OLD CONTENT\n").unwrap();
     for (program, location, needle) in [
-        ("G0 X0 Y0 Z50 A0 C0\nG2 X10 Y0 I5 J0\n", ":2:1:", "arcs"),
+        ("G0 X0 Y0 Z50 A0 C0\nG91 G2 X10 Y0 I5 J0\n", ":2:5:", "arc"),
         ("G92 X0\n", ":1:1:", "G92"),
         ("G1 X[#1 + 2]\n", ":1:4:", "expression"),
         ("G43.5 H1\n", ":1:1:", "tool-centre-point"),

@@ -199,7 +199,10 @@ fn unchanged_bytes_stay_and_missing_axes_are_added() {
 #[test]
 fn unsupported_blocks_are_errors_with_line_and_column() {
     for (program, needle) in [
-        ("G1 X10\nG2 X20 Y10 I5 J0\n", "p.nc:2:1: arcs"),
+        (
+            "G1 X10 Y0 Z5 A-20 C0\nG2 X20 Y10 I5 J0\n",
+            "p.nc:2:1: this arc cannot be compensated: its end is not on its circle",
+        ),
         ("G92 X0\n", "p.nc:1:1: G92 cannot be compensated"),
         ("G1 X[#1+2]\n", "p.nc:1:4: X is given by an expression"),
         ("G1 X#5\n", "p.nc:1:4: X is given by a parameter"),

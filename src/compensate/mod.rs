@@ -5,6 +5,7 @@
 //! compensated value rounds differently (design/model.md, "Numbers in programs"); a block
 //! that omits an axis whose value must change gets that word added.
 
+mod arcs;
 mod exact;
 mod gcodes;
 mod split;
@@ -87,6 +88,12 @@ struct State {
     rapid: bool,
     /// G93: F words are inverse times.
     inverse_time: bool,
+    /// Arc plane: 0 G17 (X, Y), 1 G18 (Z, X), 2 G19 (Y, Z), 3 a U/V/W plane.
+    plane: u8,
+    /// G90.1: arc centres are absolute.
+    arc_absolute: bool,
+    /// The last arc code was G2 (clockwise).
+    clockwise: bool,
     /// G43.4 is active: X, Y, Z words are the tool tip in the workpiece frame.
     tcp: bool,
     /// In TCP mode: the programmed tip, and the tip as written (mm).
@@ -230,6 +237,9 @@ impl<'m> Compensator<'m> {
             rapid: false,
             inverse_time: false,
             last_n: None,
+            plane: 0,
+            arc_absolute: false,
+            clockwise: true,
             tcp: false,
             tip_nominal: [0.0; 3],
             tip_written: [0.0; 3],
@@ -322,14 +332,18 @@ impl<'m> Compensator<'m> {
         summary: &mut Summary,
         at: &dyn Fn(usize, String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
-        let Some(BlockMotion {
+        let Some(motion) = self.read_block(line, tokens, state, at)? else {
+            return Ok(());
+        };
+        let BlockMotion {
             axis_words,
             optional,
             kind,
-        }) = self.read_block(line, tokens, state, at)?
-        else {
-            return Ok(());
-        };
+            ..
+        } = motion;
+        if let MoveKind::Arc { clockwise } = kind {
+            return self.arc_block(line, tokens, &motion, clockwise, state, edits, summary, at);
+        }
         let n = self.kin.len();
         if state.tcp && kind == MoveKind::Program {
             return self.tcp_block(

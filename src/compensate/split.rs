@@ -143,7 +143,7 @@ impl Compensator<'_> {
     /// N numbers for `count` blocks inserted before the current one: consecutive numbers
     /// in the gap after the previous block's number when the gap is wide enough, else the
     /// block's own number again; none when the block has no N word.
-    fn inserted_numbers(
+    pub(super) fn inserted_numbers(
         &self,
         tokens: &[Token],
         content: &[u8],
@@ -172,13 +172,13 @@ impl Compensator<'_> {
 }
 
 /// How a block writes its words: letter case and what stands between words.
-struct Style {
+pub(super) struct Style {
     lowercase: bool,
-    separator: &'static str,
+    pub(super) separator: &'static str,
 }
 
 impl Style {
-    fn of(_content: &[u8], tokens: &[Token]) -> Style {
+    pub(super) fn of(_content: &[u8], tokens: &[Token]) -> Style {
         let lowercase = tokens.iter().find_map(|t| match &t.kind {
             TokenKind::Word(w) => Some(w.lowercase),
             _ => None,
@@ -192,7 +192,7 @@ impl Style {
         }
     }
 
-    fn letter(&self, letter: u8) -> String {
+    pub(super) fn letter(&self, letter: u8) -> String {
         let c = if self.lowercase {
             letter.to_ascii_lowercase()
         } else {

@@ -56,6 +56,9 @@ pub struct Summary {
     /// the first.
     pub unsplit_moves: usize,
     pub first_unsplit: usize,
+    /// Arcs replaced by straight pieces, and the blocks that took.
+    pub arcs: usize,
+    pub arc_blocks_added: usize,
     /// Travel-limit violations written anyway (--allow-limit-violations).
     pub limit_violations: Vec<String>,
     /// Blocks that move but were written unchanged because an axis was at a position
@@ -128,6 +131,11 @@ impl Summary {
         }
         self.moves_split += 1;
         self.blocks_added += added;
+    }
+
+    pub(crate) fn note_arc(&mut self, _line: usize, added: usize) {
+        self.arcs += 1;
+        self.arc_blocks_added += added;
     }
 
     pub(crate) fn note_unsplit(&mut self, line: usize) {
@@ -214,6 +222,14 @@ impl fmt::Display for Summary {
                 count(self.moves_split, "move"),
                 self.first_split,
                 count(self.blocks_added, "block")
+            )?;
+        }
+        if self.arcs > 0 {
+            write!(
+                f,
+                "\n{} replaced by straight pieces within 0.5 µm of the arc: {} added",
+                count(self.arcs, "arc"),
+                count(self.arc_blocks_added, "block")
             )?;
         }
         if self.unsplit_moves > 0 {

@@ -11,6 +11,9 @@ use crate::nc::{self, Token, TokenKind, Value};
 pub(super) struct BlockMotion {
     /// Token index of each variable's axis word, if the block has one.
     pub axis_words: [Option<usize>; MAX_AXES],
+    /// For arcs: token indices of the I, J, K and R words, and of the G2/G3 word.
+    pub arc_words: [Option<usize>; 4],
+    pub arc_code: Option<usize>,
     /// The block starts with a block delete `/`: it runs only with the switch off.
     pub optional: bool,
     pub kind: MoveKind,
@@ -27,6 +30,8 @@ pub(super) enum MoveKind {
     /// G28/G30: the axes named (all of them if none is) go to a reference point. Left
     /// untouched; those axes end at an unknown program position.
     Home,
+    /// G2/G3 in program coordinates: replaced by compensated straight pieces.
+    Arc { clockwise: bool },
 }
 
 impl Compensator<'_> {
@@ -56,6 +61,9 @@ impl Compensator<'_> {
         let mut o_word = None;
         let mut other_text = None;
         let mut arc_word: Option<(char, usize)> = None;
+        let mut arc_words: [Option<usize>; 4] = [None; 4];
+        let mut arc_code = None;
+        let mut p_word = None;
         let mut special: Option<MoveKind> = None;
         let mut set_reference: Option<usize> = None;
         for (i, t) in tokens.iter().enumerate() {
@@ -118,6 +126,10 @@ impl Compensator<'_> {
                     g @ (GCode::Motion | GCode::Arc) => {
                         motion_in_block = Some((g, t.span.start));
                         state.rapid = code10 == 0;
+                        if g == GCode::Arc {
+                            state.clockwise = code10 == 20;
+                            arc_code = Some(i);
+                        }
                     }
                     GCode::Dwell => dwell = true,
                     GCode::Inch => state.inch = true,
@@ -164,6 +176,12 @@ impl Compensator<'_> {
                     GCode::ReturnHome => special = Some(MoveKind::Home),
                     GCode::SetReference => set_reference = Some(i),
                     GCode::Harmless => match code10 {
+                        170 => state.plane = 0,
+                        180 => state.plane = 1,
+                        190 => state.plane = 2,
+                        171 | 181 | 191 => state.plane = 3,
+                        901 => state.arc_absolute = true,
+                        911 => state.arc_absolute = false,
                         930 => state.inverse_time = true,
                         940 | 950 => state.inverse_time = false,
                         _ => {}
@@ -183,7 +201,8 @@ impl Compensator<'_> {
                 'T' => state.tool = Some(number as u32),
                 'H' => h_word = Some((number as u32, t.span.start)),
                 'O' => o_word = Some(t.span.start),
-                'N' | 'F' | 'S' | 'D' | 'P' | 'Q' | 'L' => {}
+                'P' => p_word = Some(t.span.start),
+                'N' | 'F' | 'S' | 'D' | 'Q' | 'L' => {}
                 _ => {
                     let var = (letter.is_ascii_uppercase())
                         .then(|| self.var_of_letter[(w.letter - b'A') as usize])
@@ -201,6 +220,7 @@ impl Compensator<'_> {
                         None if dwell && letter == 'X' => {}
                         None if "IJKR".contains(letter) => {
                             arc_word.get_or_insert((letter, t.span.start));
+                            arc_words["IJKR".find(letter).unwrap_or(0)] = Some(i);
                         }
                         None => {
                             let what = if "XYZABCUVW".contains(letter) {
@@ -275,12 +295,24 @@ impl Compensator<'_> {
         if let Some((g, _)) = motion_in_block {
             state.motion = Some(g);
         }
-        if state.motion == Some(GCode::Arc) && (motion_in_block.is_some() || arc_word.is_some()) {
+        let arc = state.motion == Some(GCode::Arc);
+        if arc && (axis_words[..n].iter().any(Option::is_some) || arc_word.is_some()) {
             let col = motion_in_block.map_or(0, |m| m.1);
-            return Err(at(
-                col,
-                "arcs (G2/G3) cannot be compensated yet; expected G0/G1 moves".into(),
-            ));
+            if let Some(col) = p_word {
+                return Err(at(col, "arcs with a P word (several turns) cannot be compensated; expected one turn at most".into()));
+            }
+            if special.is_some() {
+                return Err(at(col, "an arc cannot be combined with G28/G30/G53".into()));
+            }
+            return Ok(Some(BlockMotion {
+                axis_words,
+                arc_words,
+                arc_code,
+                optional,
+                kind: MoveKind::Arc {
+                    clockwise: state.clockwise,
+                },
+            }));
         }
         if let Some((letter, col)) = arc_word {
             return Err(at(
@@ -308,6 +340,8 @@ impl Compensator<'_> {
             Some(kind) => {
                 return Ok(Some(BlockMotion {
                     axis_words,
+                    arc_words: [None; 4],
+                    arc_code: None,
                     optional,
                     kind,
                 }));
@@ -317,15 +351,10 @@ impl Compensator<'_> {
         if dwell || !moves {
             return Ok(None);
         }
-        if state.motion == Some(GCode::Arc) {
-            let col = motion_in_block.map_or(0, |m| m.1);
-            return Err(at(
-                col,
-                "arcs (G2/G3) cannot be compensated yet; expected G0/G1 moves".into(),
-            ));
-        }
         Ok(Some(BlockMotion {
             axis_words,
+            arc_words: [None; 4],
+            arc_code: None,
             optional,
             kind: MoveKind::Program,
         }))

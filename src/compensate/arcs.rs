@@ -1,0 +1,340 @@
+//! Arcs (G2/G3 in G17/G18/G19, centres by I/J/K or a radius R).
+//!
+//! A controller interpolates an arc in the program's coordinates; on a machine with errors
+//! no arc in axis space traces the intended arc on the part. nccomp replaces each arc by
+//! straight pieces whose chords stay within half a micron of the nominal arc, each piece's
+//! end compensated like any block (and split further with `--tolerance`). The arc's own line
+//! becomes the last piece: its G2/G3 turns into G1 and its I/J/K/R words go; the pieces
+//! before it are inserted in the program's style.
+
+use super::exact::Position;
+use super::split::Style;
+use super::words::BlockMotion;
+use super::{Compensator, Edit, INCH, State, Summary, axis_order};
+use crate::diag::Diagnostic;
+use crate::kinematics::MAX_AXES;
+use crate::model::AxisKind;
+use crate::nc::number::{same_text, write_fixed};
+use crate::nc::{self, Token, TokenKind, Value};
+use std::f64::consts::TAU;
+use std::fmt::Write;
+
+/// Largest distance (mm) of a chord from its arc.
+const CHORD: f64 = 0.0005;
+/// More pieces than this for one arc means a radius or a tolerance that makes no sense.
+const MAX_PIECES: usize = 100_000;
+
+/// The plane's two axes (as program letters, first and second) and the letters of the
+/// centre words along them.
+fn plane_letters(plane: u8) -> Option<([u8; 2], [u8; 2])> {
+    match plane {
+        0 => Some(([b'X', b'Y'], [b'I', b'J'])),
+        1 => Some(([b'Z', b'X'], [b'K', b'I'])),
+        2 => Some(([b'Y', b'Z'], [b'J', b'K'])),
+        _ => None,
+    }
+}
+
+impl Compensator<'_> {
+    /// One G2/G3 block.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn arc_block(
+        &self,
+        line: &nc::Line<'_>,
+        tokens: &[Token],
+        motion: &BlockMotion,
+        clockwise: bool,
+        state: &mut State,
+        edits: &mut Vec<Edit>,
+        summary: &mut Summary,
+        at: &dyn Fn(usize, String) -> Diagnostic,
+    ) -> Result<(), Diagnostic> {
+        let n = self.kin.len();
+        let axis_words = &motion.axis_words;
+        let col = motion
+            .arc_code
+            .map(|i| tokens[i].span.start)
+            .or_else(|| {
+                axis_words
+                    .iter()
+                    .flatten()
+                    .map(|&i| tokens[i].span.start)
+                    .min()
+            })
+            .unwrap_or(0);
+        let refuse = |why: &str| Err(at(col, format!("this arc cannot be compensated: {why}")));
+        if state.incremental {
+            return refuse(
+                "arcs in incremental mode (G91) are not supported (program them in G90)",
+            );
+        }
+        if motion.optional {
+            return refuse("an optional block (/) with an arc is not supported");
+        }
+        if state.tcp {
+            return refuse("arcs under G43.4 are not supported");
+        }
+        if state.unknown != 0
+            || (0..n).any(|v| state.programmed & (1 << v) == 0 && axis_words[v].is_none())
+        {
+            return refuse("the arc starts where the program has not set every axis");
+        }
+        let Some((plane, centre_letters)) = plane_letters(state.plane) else {
+            return refuse("arcs in a U/V/W plane (G17.1, G18.1, G19.1) are not supported");
+        };
+        let var = |letter: u8| {
+            self.var_of_letter[(letter - b'A') as usize]
+                .filter(|&v| self.kin.kind(v) == AxisKind::Linear)
+        };
+        let (Some(va), Some(vb)) = (var(plane[0]), var(plane[1])) else {
+            return refuse("the machine has no linear axes for this arc plane");
+        };
+        let number = |i: usize| match &tokens[i].kind {
+            TokenKind::Word(w) => match w.value {
+                Value::Number { value, .. } => value,
+                _ => 0.0,
+            },
+            _ => 0.0,
+        };
+        let mm = |x: f64| if state.inch { x * INCH } else { x };
+        // Start and end of the move, nominal.
+        let start = state.nominal;
+        let mut end = state.nominal;
+        for v in 0..n {
+            if let Some(i) = axis_words[v] {
+                let value = number(i);
+                end[v] = if state.inch && self.is_linear(v) {
+                    value * INCH
+                } else {
+                    value
+                };
+                state.programmed |= 1 << v;
+            }
+        }
+        let (a0, b0, a1, b1) = (start[va], start[vb], end[va], end[vb]);
+        // The centre.
+        let word =
+            |letter: u8| motion.arc_words[b"IJKR".iter().position(|&l| l == letter).unwrap_or(0)];
+        let centre = if let Some(ri) = motion.arc_words[3] {
+            let r = mm(number(ri));
+            let (dx, dy) = (a1 - a0, b1 - b0);
+            let d = (dx * dx + dy * dy).sqrt();
+            if d == 0.0 || d > 2.0 * r.abs() + 1e-9 {
+                return refuse(
+                    "with R the end point must differ from the start and lie within 2R of it",
+                );
+            }
+            let h = (r * r - d * d / 4.0).max(0.0).sqrt();
+            // The centre to the left of the chord for a short CCW arc (or long CW).
+            let left = clockwise == (r < 0.0);
+            let (mx, my) = ((a0 + a1) / 2.0, (b0 + b1) / 2.0);
+            let (ux, uy) = (-dy / d, dx / d);
+            if left {
+                (mx + ux * h, my + uy * h)
+            } else {
+                (mx - ux * h, my - uy * h)
+            }
+        } else {
+            let (ci, cj) = (word(centre_letters[0]), word(centre_letters[1]));
+            if ci.is_none() && cj.is_none() {
+                return refuse("it gives neither a centre (I/J/K for its plane) nor a radius (R)");
+            }
+            let off_a = ci.map_or(0.0, |i| mm(number(i)));
+            let off_b = cj.map_or(0.0, |i| mm(number(i)));
+            if state.arc_absolute {
+                (off_a, off_b)
+            } else {
+                (a0 + off_a, b0 + off_b)
+            }
+        };
+        let r0 = ((a0 - centre.0).powi(2) + (b0 - centre.1).powi(2)).sqrt();
+        let r1 = ((a1 - centre.0).powi(2) + (b1 - centre.1).powi(2)).sqrt();
+        if r0 < 1e-9 || (r0 - r1).abs() > 0.002_f64.max(1e-6 * r0) {
+            return refuse(&format!(
+                "its end is not on its circle (radius {r0:.4} at the start, {r1:.4} at the end)"
+            ));
+        }
+        let th0 = (b0 - centre.1).atan2(a0 - centre.0);
+        let th1 = (b1 - centre.1).atan2(a1 - centre.0);
+        // Signed sweep: clockwise negative; equal ends make a full circle.
+        let sweep = if clockwise {
+            let s = -(th0 - th1).rem_euclid(TAU);
+            if s == 0.0 { -TAU } else { s }
+        } else {
+            let s = (th1 - th0).rem_euclid(TAU);
+            if s == 0.0 { TAU } else { s }
+        };
+        let radius = r0.max(r1);
+        let step = 2.0 * (1.0 - (CHORD / radius).min(1.0)).acos();
+        let pieces = ((sweep.abs() / step).ceil() as usize).max(1);
+        if pieces > MAX_PIECES {
+            return refuse(&format!("it would take {pieces} straight pieces"));
+        }
+        // The inserted pieces, then the arc's own line as the last one.
+        let style = Style::of(line.content, tokens);
+        let numbers = self.inserted_numbers(tokens, line.content, state, pieces - 1);
+        let ending = if line.ending.is_empty() {
+            "\n"
+        } else {
+            std::str::from_utf8(line.ending).unwrap_or("\n")
+        };
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by_key(|&v| axis_order(self.letter(v)));
+        let f_word = tokens
+            .iter()
+            .find(|t| matches!(&t.kind, TokenKind::Word(w) if w.letter == b'F'));
+        let mut text = String::new();
+        for k in 1..pieces {
+            let s = k as f64 / pieces as f64;
+            let th = th0 + sweep * s;
+            let r = r0 + (r1 - r0) * s;
+            let mut q = [0.0; MAX_AXES];
+            for v in 0..n {
+                q[v] = start[v] + (end[v] - start[v]) * s;
+            }
+            q[va] = centre.0 + r * th.cos();
+            q[vb] = centre.1 + r * th.sin();
+            let sol = self
+                .kin
+                .compensate(&q[..n], state.length, self.hold, &self.options.solve);
+            let mut words: Vec<String> = Vec::new();
+            if let Some(number) = &numbers[k - 1] {
+                words.push(style.letter(b'N') + number);
+            }
+            if k == 1 {
+                words.push(style.letter(b'G') + "1");
+            }
+            for &v in &order {
+                let inch = state.inch && self.is_linear(v);
+                let value = if inch { sol.q[v] / INCH } else { sol.q[v] };
+                let emitted = if inch {
+                    state.emitted[v] / INCH
+                } else {
+                    state.emitted[v]
+                };
+                let d = state.decimals[v].max(self.res_decimals(v, state.inch));
+                if same_text(emitted, value, d) {
+                    continue;
+                }
+                let mut number = String::new();
+                write_fixed(value, d, &mut number);
+                let x: f64 = number.parse().unwrap_or(value);
+                state.emitted[v] = if inch { x * INCH } else { x };
+                state.written[v] = Position::Decimal {
+                    value,
+                    decimals: d,
+                    inch,
+                };
+                words.push(style.letter(self.letter(v)) + &number);
+            }
+            if let Some(f) = f_word
+                && let TokenKind::Word(w) = &f.kind
+                && let Value::Number { value, decimals } = w.value
+            {
+                if state.inverse_time {
+                    let mut number = String::new();
+                    write_fixed(value * pieces as f64, decimals.max(3) + 1, &mut number);
+                    words.push(style.letter(b'F') + &number);
+                } else if k == 1 {
+                    words.push(String::from_utf8_lossy(&line.content[f.span.clone()]).into_owned());
+                }
+            }
+            let (after, _) = self.kin.pose(
+                crate::kinematics::Model::Actual,
+                &state.emitted[..n],
+                state.length,
+            );
+            let (ap, ad) = after.deviation(&sol.target);
+            summary.record(
+                line.number,
+                sol.start_position_error,
+                sol.start_direction_error,
+                ap,
+                ad,
+                sol.singular != 0,
+                false,
+            );
+            let _ = write!(text, "{}{}", words.join(style.separator), ending);
+        }
+        if pieces > 1 {
+            edits.push(Edit { at: 0..0, text });
+        }
+        // The arc's own line: G1, no centre words, its end compensated.
+        if let Some(i) = motion.arc_code {
+            let t = &tokens[i];
+            if let TokenKind::Word(w) = &t.kind {
+                let digits = &line.content[w.value_span.clone()];
+                let text = if digits.first() == Some(&b'0') {
+                    "01"
+                } else {
+                    "1"
+                };
+                edits.push(Edit {
+                    at: w.value_span.clone(),
+                    text: text.into(),
+                });
+            }
+        } else if pieces == 1 {
+            // A modal arc of one piece: the motion mode must become G1 here.
+            let first = axis_words
+                .iter()
+                .flatten()
+                .map(|&i| tokens[i].span.start)
+                .min()
+                .unwrap_or(0);
+            edits.push(Edit {
+                at: first..first,
+                text: style.letter(b'G') + "1" + style.separator,
+            });
+        }
+        for i in motion.arc_words.iter().flatten() {
+            let t = &tokens[*i];
+            // The word and the space before it.
+            let start = tokens
+                .iter()
+                .position(|x| x.span.end == t.span.start && x.kind == TokenKind::Space)
+                .map_or(t.span.start, |p| tokens[p].span.start);
+            edits.push(Edit {
+                at: start..t.span.end,
+                text: String::new(),
+            });
+        }
+        if state.inverse_time
+            && let Some(f) = f_word
+            && let TokenKind::Word(w) = &f.kind
+            && let Value::Number { value, decimals } = w.value
+        {
+            let mut number = String::new();
+            write_fixed(value * pieces as f64, decimals.max(3) + 1, &mut number);
+            edits.push(Edit {
+                at: w.value_span.clone(),
+                text: number,
+            });
+        }
+        state.nominal = end;
+        let sol = self
+            .kin
+            .compensate(&end[..n], state.length, self.hold, &self.options.solve);
+        summary.motion_blocks += 1;
+        summary.note_arc(line.number, pieces - 1);
+        self.write_positions(
+            line, tokens, axis_words, &sol.q, false, state, edits, summary, at,
+        )?;
+        let (after, beyond) = self.kin.pose(
+            crate::kinematics::Model::Actual,
+            &state.emitted[..n],
+            state.length,
+        );
+        let (ap, ad) = after.deviation(&sol.target);
+        summary.record(
+            line.number,
+            sol.start_position_error,
+            sol.start_direction_error,
+            ap,
+            ad,
+            sol.singular != 0,
+            beyond,
+        );
+        Ok(())
+    }
+}
