@@ -82,7 +82,12 @@ enum FormatArg {
 #[derive(clap::Args)]
 struct ProbeArgs {
     /// The probe's delay τ between trigger and latch, ms.
-    #[arg(long, value_name = "MS", conflicts_with = "ring")]
+    #[arg(
+        long,
+        value_name = "MS",
+        conflicts_with = "ring",
+        allow_negative_numbers = true
+    )]
     tau: Option<f64>,
     /// Ring-gauge data (CSV: speed, radius[, direction]) to fit τ from.
     #[arg(long, value_name = "RING.csv")]
@@ -93,31 +98,36 @@ struct ProbeArgs {
     /// What the map's radius column holds.
     #[arg(long, value_enum, default_value = "radius")]
     map_kind: MapKindArg,
-    /// The kind of surface the radii were measured on.
+    /// The kind of surface the map's radii were measured on (the ring-gauge data's kind
+    /// is read from the sign of its slope).
     #[arg(long, value_enum, default_value = "inside")]
     surface: SurfaceArg,
     /// The lowest probing speed allowed, mm/min.
-    #[arg(long, value_name = "MM/MIN")]
+    #[arg(long, value_name = "MM/MIN", allow_negative_numbers = true)]
     min_feed: Option<f64>,
     /// The highest probing speed allowed, mm/min.
-    #[arg(long, value_name = "MM/MIN")]
+    #[arg(long, value_name = "MM/MIN", allow_negative_numbers = true)]
     max_feed: Option<f64>,
     /// The mean of the new speeds, mm/min (default: the mean of the map's speeds).
-    #[arg(long, value_name = "MM/MIN")]
+    #[arg(long, value_name = "MM/MIN", allow_negative_numbers = true)]
     mean_feed: Option<f64>,
     /// The step of the written speeds, mm/min.
-    #[arg(long, value_name = "MM/MIN", default_value_t = 0.1)]
+    #[arg(
+        long,
+        value_name = "MM/MIN",
+        default_value_t = 0.1,
+        allow_negative_numbers = true
+    )]
     feed_step: f64,
-    /// The probe axis in program coordinates (from the stylus tip towards the spindle).
+    /// The probe axis in program coordinates, from the stylus tip towards the spindle
+    /// (default 0,0,1).
     #[arg(
         long,
         value_name = "X,Y,Z",
-        value_delimiter = ',',
-        num_args = 3,
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         conflicts_with = "machine"
     )]
-    probe_axis: Option<Vec<f64>>,
+    probe_axis: Option<String>,
     /// Machine file: the probe axis is the machine's tool direction at each probing move.
     #[arg(long, short = 'm', value_name = "MACHINE.toml")]
     machine: Option<PathBuf>,
@@ -276,22 +286,22 @@ fn probe(args: &ProbeArgs) -> nccomp::Result<()> {
     {
         return Err(usage(format!("--min-feed {lo} is above --max-feed {hi}")));
     }
+    if args.input.is_some() && args.map.is_none() {
+        return Err(usage(
+            "a program needs a direction map to take its speeds from (--map)".into(),
+        ));
+    }
     if args.map.is_none() && args.ring.is_none() {
         return Err(usage(
             "nothing to do: give --ring to fit τ, or --map (with --tau or --ring) to compute speeds"
                 .into(),
         ));
     }
-    if args.input.is_some() && args.map.is_none() {
-        return Err(usage(
-            "a program needs a direction map to take its speeds from (--map)".into(),
-        ));
-    }
     // τ.
     let tau = match (&args.ring, args.tau) {
         (Some(path), _) => {
             let (text, name) = read_file(path)?;
-            let fit = pr::delay::delay_from_csv(&name, &text, surface)?;
+            let fit = pr::delay::delay_from_csv(&name, &text, None)?;
             Some(Tau::Fitted { path: name, fit })
         }
         (None, Some(t)) => Some(Tau::Given(t)),
@@ -361,10 +371,26 @@ fn probe(args: &ProbeArgs) -> nccomp::Result<()> {
                     };
                     FrameSource::Machine { machine: m, chain }
                 }
-                (None, Some(v)) => FrameSource::Frame(
-                    ProbeFrame::from_axis(&nalgebra::Vector3::new(v[0], v[1], v[2]))
-                        .ok_or_else(|| usage("--probe-axis: the axis must not be zero".into()))?,
-                ),
+                (None, Some(text)) => {
+                    let expected = || {
+                        usage(format!(
+                            "--probe-axis {text}: expected three numbers X,Y,Z (e.g. 0,0,1)"
+                        ))
+                    };
+                    let v: Vec<f64> = text
+                        .split(',')
+                        .map(|x| x.trim().parse::<f64>())
+                        .collect::<Result<_, _>>()
+                        .map_err(|_| expected())?;
+                    let [x, y, z] = v[..] else {
+                        return Err(expected());
+                    };
+                    FrameSource::Frame(
+                        ProbeFrame::from_axis(&nalgebra::Vector3::new(x, y, z)).ok_or_else(
+                            || usage(format!("--probe-axis {text}: the axis must not be zero")),
+                        )?,
+                    )
+                }
                 (None, None) => FrameSource::Frame(ProbeFrame::vertical()),
             };
             let speeds = plan.speeds.clone();

@@ -1,7 +1,8 @@
 //! The delay τ between trigger and latch, from trigger radii at several constant speeds.
 //!
 //! With `r = r0 + s·v·τ` (s = +1 on an inside surface such as a ring gauge, −1 on an
-//! outside one), τ is `s` times the slope of the least-squares line of radius on speed.
+//! outside one such as a sphere), τ is the magnitude of the slope of the least-squares
+//! line of radius on speed, and the slope's sign tells the kind of surface.
 //! When the rows say in which direction each radius was taken, the fit keeps one
 //! intercept per direction and a common slope, so the probe's lobing (the same at every
 //! speed) drops out of the residuals instead of inflating τ's uncertainty.
@@ -52,6 +53,8 @@ pub struct DelayFit {
     pub tau_ms: f64,
     /// Standard uncertainty of τ from the fit (k = 1), ms.
     pub u_tau_ms: f64,
+    /// The surface the slope's sign says the radii were measured on.
+    pub surface: Surface,
     /// Slope of radius on speed as measured, mm per mm/min (minutes).
     pub slope: f64,
     /// The fitted radius at speed 0, mm (the mean over directions when there are several).
@@ -67,9 +70,10 @@ pub struct DelayFit {
     pub speeds: Vec<SpeedLevel>,
 }
 
-/// Fit τ to `points` measured on a surface of kind `surface`. The error says what is
-/// wrong with the data as a whole (too few points, one speed, a slope of the wrong sign).
-pub fn fit_delay(points: &[RingPoint], surface: Surface) -> Result<DelayFit, String> {
+/// Fit τ to `points`. With `expect`, the slope's sign must match that kind of surface.
+/// The error says what is wrong with the data as a whole (too few points, one speed, a
+/// slope of the wrong sign).
+pub fn fit_delay(points: &[RingPoint], expect: Option<Surface>) -> Result<DelayFit, String> {
     let n = points.len();
     // Groups: one per direction label, or one for all.
     let mut keys: Vec<u64> = Vec::new();
@@ -167,20 +171,31 @@ pub fn fit_delay(points: &[RingPoint], surface: Surface) -> Result<DelayFit, Str
         .map(|g| mean_r[g] - slope * mean_v[g])
         .sum::<f64>()
         / groups as f64;
-    let tau_ms = surface.sign() * slope * 60_000.0;
-    if !positive(tau_ms) {
-        let (grows, other) = match surface {
-            Surface::Inside => ("shrinks", "outside (use --surface outside)"),
-            Surface::Outside => ("grows", "inside (leave out --surface outside)"),
+    let surface = if slope >= 0.0 {
+        Surface::Inside
+    } else {
+        Surface::Outside
+    };
+    let tau_ms = slope.abs() * 60_000.0;
+    if let Some(expected) = expect
+        && expected != surface
+    {
+        let (grows, other) = match expected {
+            Surface::Inside => ("shrinks", "an outside surface (a sphere or plug)"),
+            Surface::Outside => ("grows", "an inside surface (a ring or bore)"),
         };
         return Err(format!(
-            "the radius {grows} as the speed rises (slope {:.4} µm per mm/min): on this surface that gives τ = {tau_ms:.2} ms; is the surface {other}?",
+            "the radius {grows} as the speed rises (slope {:.4} µm per mm/min), as on {other}",
             slope * 1000.0
         ));
+    }
+    if !positive(tau_ms) {
+        return Err("the radius does not change with the speed: τ = 0".into());
     }
     Ok(DelayFit {
         tau_ms,
         u_tau_ms: u_slope * 60_000.0,
+        surface,
         slope,
         intercept,
         points: n,
@@ -242,12 +257,12 @@ pub fn read_ring(path: &str, text: &[u8]) -> crate::Result<Vec<Row<RingPoint>>> 
         .collect()
 }
 
-/// Read ring-gauge data and fit τ; a problem with the data as a whole is reported at the
-/// last row (or the header when there is none).
-pub fn delay_from_csv(path: &str, text: &[u8], surface: Surface) -> crate::Result<DelayFit> {
+/// Read ring-gauge data and fit τ (see [`fit_delay`]); a problem with the data as a whole
+/// is reported at the last row (or the header when there is none).
+pub fn delay_from_csv(path: &str, text: &[u8], expect: Option<Surface>) -> crate::Result<DelayFit> {
     let rows = read_ring(path, text)?;
     let points: Vec<RingPoint> = rows.iter().map(|r| r.value).collect();
-    fit_delay(&points, surface).map_err(|m| {
+    fit_delay(&points, expect).map_err(|m| {
         let offset = rows.last().map_or(0, |r| r.offset);
         Error::at(path, text, offset, format!("ring-gauge data: {m}"))
     })
@@ -272,13 +287,14 @@ mod tests {
             .iter()
             .map(|&v| p(v, 25.99 + v * tau / 60_000.0, None))
             .collect();
-        let f = fit_delay(&pts, Surface::Inside).unwrap();
+        let f = fit_delay(&pts, None).unwrap();
+        assert_eq!(f.surface, Surface::Inside);
         assert!((f.tau_ms - tau).abs() < 1e-9, "{}", f.tau_ms);
         assert!(f.u_tau_ms < 1e-9);
         assert!((f.intercept - 25.99).abs() < 1e-12);
         assert_eq!((f.points, f.groups, f.dof, f.speeds.len()), (3, 1, 1, 3));
         assert!(
-            fit_delay(&pts, Surface::Outside)
+            fit_delay(&pts, Some(Surface::Outside))
                 .unwrap_err()
                 .contains("grows")
         );
@@ -295,7 +311,7 @@ mod tests {
                 pts.push(p(v, 12.5 - v * tau / 60_000.0 + lobe, Some(a)));
             }
         }
-        let f = fit_delay(&pts, Surface::Outside).unwrap();
+        let f = fit_delay(&pts, Some(Surface::Outside)).unwrap();
         assert!((f.tau_ms - tau).abs() < 1e-9);
         assert_eq!(f.groups, 12);
         assert!(f.residual_std < 1e-12);
@@ -303,44 +319,37 @@ mod tests {
         for q in &mut pts {
             q.direction = None;
         }
-        let g = fit_delay(&pts, Surface::Outside).unwrap();
+        let g = fit_delay(&pts, None).unwrap();
+        assert_eq!(g.surface, Surface::Outside);
         assert!((g.tau_ms - tau).abs() < 1e-6);
         assert!(g.residual_std > 0.002);
     }
 
     #[test]
     fn too_little_data() {
-        let e = fit_delay(&[p(50.0, 1.0, None), p(100.0, 1.0, None)], Surface::Inside);
+        let e = fit_delay(&[p(50.0, 1.0, None), p(100.0, 1.0, None)], None);
         assert!(e.unwrap_err().starts_with("too few points"));
         let e = fit_delay(
             &[p(50.0, 1.0, None), p(50.0, 1.1, None), p(50.0, 1.2, None)],
-            Surface::Inside,
+            None,
         );
         assert!(e.unwrap_err().contains("two speeds"));
     }
 
     #[test]
     fn csv_errors_are_located() {
-        let e = delay_from_csv(
-            "r.csv",
-            b"speed,radius\n50,26.0\n100,26.01\n",
-            Surface::Inside,
-        )
-        .unwrap_err()
-        .to_string();
+        let e = delay_from_csv("r.csv", b"speed,radius\n50,26.0\n100,26.01\n", None)
+            .unwrap_err()
+            .to_string();
         assert!(
             e.starts_with("r.csv:3:1: ring-gauge data: too few points"),
             "{e}"
         );
-        let e = delay_from_csv(
-            "r.csv",
-            b"speed,radius,direction\n50,26.0,\n",
-            Surface::Inside,
-        )
-        .unwrap_err()
-        .to_string();
+        let e = delay_from_csv("r.csv", b"speed,radius,direction\n50,26.0,\n", None)
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("r.csv:2:9: `direction` is empty"), "{e}");
-        let e = delay_from_csv("r.csv", b"speed,radius\n-50,26.0\n", Surface::Inside)
+        let e = delay_from_csv("r.csv", b"speed,radius\n-50,26.0\n", None)
             .unwrap_err()
             .to_string();
         assert!(e.starts_with("r.csv:2:1: `speed` is -50"), "{e}");

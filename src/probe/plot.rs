@@ -11,7 +11,7 @@ use super::speeds::SpeedPlan;
 use plotters::prelude::*;
 
 /// Colours of the rings, in order of increasing β.
-const PALETTE: [RGBColor; 8] = [
+const PALETTE: [RGBColor; 12] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -19,7 +19,11 @@ const PALETTE: [RGBColor; 8] = [
     RGBColor(148, 103, 189),
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
     RGBColor(23, 190, 207),
+    RGBColor(0, 0, 128),
+    RGBColor(128, 0, 0),
 ];
 
 /// A grid step (µm) of 1, 2 or 5 × 10^k, about a third of `max`.
@@ -37,7 +41,7 @@ fn grid_step(max: f64) -> f64 {
 pub fn polar_svg(map: &DirectionMap, plan: &SpeedPlan, what: &str) -> Result<String, String> {
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (1000, 560)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (1200, 560)).into_drawing_area();
         draw(&root, map, plan, what).map_err(|e| format!("cannot draw the plot: {e}"))?;
         root.present()
             .map_err(|e| format!("cannot draw the plot: {e}"))?;
@@ -84,15 +88,28 @@ fn draw(
         (20, 44),
         ("sans-serif", 14).into_font().color(&RGBColor(90, 90, 90)),
     ))?;
-    let (left, right) = body.split_horizontally(500);
+    let (panels, legend) = body.split_horizontally(1000);
+    let (left, right) = panels.split_horizontally(500);
     let betas = map.ring_betas();
+    let drawn: Vec<(usize, f64)> = betas
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|&(_, b)| map.ring(b).len() >= 3)
+        .collect();
     for (area, dev, label) in [
         (&left, &dev0, "measured"),
         (&right, &dev1, "predicted at the new speeds"),
     ] {
+        // Equal scales in x and y, so that circles stay round.
+        let (w, h) = area.dim_in_pixel();
+        let margin = 30;
+        let half = 1.55;
+        let half_x = half * f64::from(w.saturating_sub(2 * margin))
+            / f64::from(h.saturating_sub(2 * margin).max(1));
         let mut chart = ChartBuilder::on(area)
-            .margin(10)
-            .build_cartesian_2d(-1.55f64..1.55f64, -1.55f64..1.55f64)?;
+            .margin(margin)
+            .build_cartesian_2d(-half_x..half_x, -half..half)?;
         // Grid: circles at the mean and ± steps, spokes every 30°.
         let n_steps = (0.4 / (k * step)).round().max(1.0) as i32;
         for j in -n_steps..=n_steps {
@@ -118,11 +135,8 @@ fn draw(
                 RGBColor(230, 230, 230).stroke_width(1),
             )))?;
         }
-        for (ring_no, &beta) in betas.iter().enumerate() {
+        for &(ring_no, beta) in &drawn {
             let members = map.ring(beta);
-            if members.len() < 3 {
-                continue;
-            }
             let mut line: Vec<(f64, f64)> = members
                 .iter()
                 .map(|&i| {
@@ -133,28 +147,46 @@ fn draw(
                 .collect();
             line.push(line[0]);
             let colour = PALETTE[ring_no % PALETTE.len()];
-            chart
-                .draw_series(std::iter::once(PathElement::new(
-                    line,
-                    colour.stroke_width(2),
-                )))?
-                .label(format!("β = {beta}°"))
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-                });
+            chart.draw_series(std::iter::once(PathElement::new(
+                line,
+                colour.stroke_width(2),
+            )))?;
         }
         area.draw(&Text::new(
             label.to_string(),
             (20, 8),
             ("sans-serif", 16).into_font().color(&BLACK),
         ))?;
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .background_style(WHITE.mix(0.8))
-            .border_style(RGBColor(200, 200, 200))
-            .label_font(("sans-serif", 12))
-            .draw()?;
+        // α labels at the ends of the spokes, every 90°.
+        for (deg, dx, dy) in [(0, 4, -6), (90, -10, -18), (180, -34, -6), (270, -14, 4)] {
+            let a = f64::from(deg).to_radians();
+            chart.draw_series(std::iter::once(
+                EmptyElement::at((1.45 * a.cos(), 1.45 * a.sin()))
+                    + Text::new(
+                        format!("{deg}°"),
+                        (dx, dy),
+                        ("sans-serif", 12).into_font().color(&RGBColor(90, 90, 90)),
+                    ),
+            ))?;
+        }
+    }
+    legend.draw(&Text::new(
+        "rings".to_string(),
+        (10, 40),
+        ("sans-serif", 14).into_font().color(&BLACK),
+    ))?;
+    for (row, &(ring_no, beta)) in drawn.iter().enumerate() {
+        let y = 70 + 22 * row as i32;
+        let colour = PALETTE[ring_no % PALETTE.len()];
+        legend.draw(&PathElement::new(
+            vec![(10, y), (40, y)],
+            colour.stroke_width(2),
+        ))?;
+        legend.draw(&Text::new(
+            format!("β = {beta}°"),
+            (48, y - 7),
+            ("sans-serif", 13).into_font().color(&BLACK),
+        ))?;
     }
     Ok(())
 }

@@ -5,7 +5,7 @@ use super::delay::DelayFit;
 use super::map::DirectionMap;
 use super::rewrite::{FeedEdit, RewriteSummary};
 use super::speeds::SpeedPlan;
-use super::{MapKind, speed_term};
+use super::{MapKind, Surface, speed_term};
 use std::fmt::Write;
 
 /// Where τ came from.
@@ -24,10 +24,20 @@ impl Tau {
     }
 }
 
+/// `x` with at most `decimals` decimals, without trailing zeros.
+pub fn short(x: f64, decimals: usize) -> String {
+    let s = format!("{x:.decimals$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
 /// The lines about τ.
 pub fn tau_lines(tau: &Tau) -> String {
     match tau {
-        Tau::Given(t) => format!("probe delay: τ = {t} ms (given)\n"),
+        Tau::Given(t) => format!("probe delay: τ = {} ms (given)\n", short(*t, 4)),
         Tau::Fitted { path, fit } => {
             let mut s = format!(
                 "probe delay: τ = {:.3} ms, standard uncertainty {:.3} ms, from {path}: {} points at {} speeds",
@@ -39,7 +49,19 @@ pub fn tau_lines(tau: &Tau) -> String {
             if fit.groups > 1 {
                 let _ = write!(s, " in {} directions", fit.groups);
             }
-            let _ = writeln!(s, ", residual {:.2} µm", fit.residual_std * 1000.0);
+            let _ = writeln!(
+                s,
+                ", residual {:.2} µm; the radius {} with the speed, as on {} surface",
+                fit.residual_std * 1000.0,
+                match fit.surface {
+                    Surface::Inside => "grows",
+                    Surface::Outside => "shrinks",
+                },
+                match fit.surface {
+                    Surface::Inside => "an inside",
+                    Surface::Outside => "an outside",
+                }
+            );
             for l in &fit.speeds {
                 let _ = writeln!(
                     s,
@@ -103,11 +125,12 @@ pub fn plan_lines(
     s.push('\n');
     let _ = writeln!(
         s,
-        "speeds: {:.2} … {:.2} mm/min (mean {:.2}); the span is {:.2} µm of pre-travel at τ = {tau_ms} ms",
+        "speeds: {:.2} … {:.2} mm/min (mean {:.2}); the span is {:.2} µm of pre-travel at τ = {} ms",
         plan.min_speed(),
         plan.max_speed(),
         plan.mean_speed(),
-        speed_term(plan.max_speed() - plan.min_speed(), tau_ms) * 1000.0
+        speed_term(plan.max_speed() - plan.min_speed(), tau_ms) * 1000.0,
+        short(tau_ms, 3)
     );
     s
 }

@@ -152,10 +152,15 @@ enum G {
     FeedPerMinute,
     FeedOther(&'static str),
     CycleCancel,
-    /// The block's axis words are data, and positions are unknown after it (G10, G92, G52).
+    /// The block's axis words are data, and the positions of the axes it names (all axes
+    /// if it names none) are unknown after it (G10, G92, G52).
     Data,
-    /// Positions are unknown after the block (G28, G30, G53, a work offset).
+    /// The axes the block names (all if it names none) are somewhere the program does not
+    /// say after it (G28, G30 return to a reference point; G53 moves in machine
+    /// coordinates).
     Lost,
+    /// A work offset (G54 … G59.3, G54.1): switching to another one loses every position.
+    WorkOffset(i64),
     Call,
     TransformOn(&'static str),
     TransformOff,
@@ -182,7 +187,8 @@ fn classify(code10: i64) -> G {
         950 => FeedOther("feed per revolution (G95)"),
         800 => CycleCancel,
         100 | 520 | 920..=923 => Data,
-        280 | 281 | 300 | 301 | 530 | 540..=599 => Lost,
+        280 | 281 | 300 | 301 | 530 => Lost,
+        540..=599 => WorkOffset(code10),
         650 => Call,
         660 | 661 => Refused("a modal macro call (G66)"),
         680..=683 => TransformOn("coordinate rotation (G68)"),
@@ -232,6 +238,7 @@ struct State {
     motion: Option<Motion>,
     feed_other: Option<&'static str>,
     transform: Option<(&'static str, usize)>,
+    work_offset: Option<i64>,
     pos: Vec<Pos>,
     /// The original program's modal feed.
     orig: Feed,
@@ -304,6 +311,7 @@ pub fn rewrite(
         motion: None,
         feed_other: None,
         transform: None,
+        work_offset: None,
         pos: vec![Pos::Never; pass.axes.len()],
         orig: Feed::Unset,
         orig_uncertain: None,
@@ -496,6 +504,14 @@ impl Pass<'_, '_> {
                 G::CycleCancel => state.motion = None,
                 G::Data => data = true,
                 G::Lost => lost = true,
+                G::WorkOffset(code) => {
+                    if state.work_offset.is_some_and(|w| w != code) {
+                        for p in &mut state.pos {
+                            *p = Pos::Lost(line.number);
+                        }
+                    }
+                    state.work_offset = Some(code);
+                }
                 G::TransformOn(what) => state.transform = Some((what, line.number)),
                 G::TransformOff => state.transform = None,
                 G::Call | G::Refused(_) | G::Harmless => {}
@@ -607,8 +623,13 @@ impl Pass<'_, '_> {
         }
         // Positions after the block.
         if data || lost {
-            for p in &mut state.pos {
-                *p = Pos::Lost(line.number);
+            if axis_words.is_empty() {
+                for p in &mut state.pos {
+                    *p = Pos::Lost(line.number);
+                }
+            }
+            for &(a, _) in &axis_words {
+                state.pos[a] = Pos::Lost(line.number);
             }
             return Ok(());
         }
