@@ -135,7 +135,7 @@ pub fn plan_lines(
     s
 }
 
-/// The table of directions.
+/// The table of directions: rings from the probe's plane towards the axis, α increasing.
 pub fn direction_table(map: &DirectionMap, plan: &SpeedPlan, kind: MapKind) -> String {
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
     let (m0, m1) = (mean(&plan.before), mean(&plan.predicted));
@@ -152,7 +152,9 @@ pub fn direction_table(map: &DirectionMap, plan: &SpeedPlan, kind: MapKind) -> S
     order.sort_by(|&a, &b| {
         let (da, db) = (pts[a].direction, pts[b].direction);
         da.beta
-            .total_cmp(&db.beta)
+            .abs()
+            .total_cmp(&db.beta.abs())
+            .then(db.beta.total_cmp(&da.beta))
             .then(da.alpha.total_cmp(&db.alpha))
     });
     for i in order {

@@ -44,9 +44,9 @@ pub enum FrameSource<'m> {
 #[derive(Debug, Clone, Copy)]
 pub struct RewriteOptions<'m> {
     pub frame: FrameSource<'m>,
-    /// The step of the written F values, mm/min (its decimals are used; inch programs
-    /// get the decimals of the same step in inch/min). A word keeps at least its own
-    /// decimals.
+    /// The step of the written F values, mm/min: speeds are rounded to it and written with
+    /// its decimals (inch programs: the speed rounded in mm/min, written in inch/min with
+    /// the decimals of the same step in inch). A word keeps at least its own decimals.
     pub feed_step: f64,
 }
 
@@ -830,6 +830,12 @@ impl Pass<'_, '_> {
             })
             .unwrap_or(0);
         let d = step_decimals.max(own_decimals);
+        // The speed on the feed step (mm/min), then in program units.
+        let speed = if positive(self.feed_step) {
+            (speed / self.feed_step).round() * self.feed_step
+        } else {
+            speed
+        };
         let new_value = speed / unit;
         let (edit, written) = match f_word {
             Some(i) => {
