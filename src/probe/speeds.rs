@@ -168,6 +168,13 @@ pub fn equalise(map: &DirectionMap, opts: &SpeedOptions) -> crate::Result<SpeedP
                 (0..n).map(|i| normals[i] * rho[i]).collect()
             };
             let first = fit_sphere(&points(&r), Vector3::zeros());
+            if n <= first.rank {
+                return Err(Error::Usage(format!(
+                    "a trigger-radius map of {n} directions says nothing: the best-fit {} absorbs {} values; measure more directions, or give pre-travel (--map-kind pre-travel)",
+                    if first.rank == 4 { "sphere" } else { "circle" },
+                    first.rank
+                )));
+            }
             let variation_before = variation(&first.residuals);
             let mut v = u.clone();
             let mut centre = first.centre;
@@ -208,6 +215,8 @@ pub struct SphereFit {
     pub radius: f64,
     /// Distance from the centre minus the radius, per point.
     pub residuals: Vec<f64>,
+    /// How many of the four parameters (centre, radius) the points determine.
+    pub rank: usize,
 }
 
 /// Fit a sphere to `points` by Gauss–Newton from `start`. Directions the points do not
@@ -218,6 +227,7 @@ pub fn fit_sphere(points: &[Vector3<f64>], start: Vector3<f64>) -> SphereFit {
     let mut c = start;
     let dist = |c: &Vector3<f64>| -> Vec<f64> { points.iter().map(|p| (p - c).norm()).collect() };
     let mut radius = dist(&c).iter().sum::<f64>() / n.max(1) as f64;
+    let mut rank = 0;
     for _ in 0..20 {
         let d = dist(&c);
         let mut j = DMatrix::<f64>::zeros(n, 4);
@@ -236,6 +246,7 @@ pub fn fit_sphere(points: &[Vector3<f64>], start: Vector3<f64>) -> SphereFit {
         }
         let svd = j.svd(true, true);
         let eps = svd.singular_values.max() * 1e-9;
+        rank = svd.singular_values.iter().filter(|&&x| x > eps).count();
         let Ok(step) = svd.solve(&(-e), eps) else {
             break;
         };
@@ -250,6 +261,7 @@ pub fn fit_sphere(points: &[Vector3<f64>], start: Vector3<f64>) -> SphereFit {
         centre: c,
         radius,
         residuals,
+        rank,
     }
 }
 
@@ -472,6 +484,27 @@ mod tests {
     }
 
     #[test]
+    fn a_radius_map_needs_more_directions_than_the_fit_absorbs() {
+        let pts = (0..3)
+            .map(|k| MapPoint::new(120.0 * f64::from(k), 0.0, 26.0 + 0.001 * f64::from(k), 50.0))
+            .collect();
+        let map = DirectionMap::new(pts).unwrap();
+        let e = equalise(&map, &SpeedOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("a trigger-radius map of 3 directions says nothing: the best-fit circle absorbs 3 values"), "{e}");
+        let plan = equalise(
+            &map,
+            &SpeedOptions {
+                kind: MapKind::PreTravel,
+                ..SpeedOptions::default()
+            },
+        )
+        .unwrap();
+        assert!(plan.variation_after < 1e-4);
+    }
+
+    #[test]
     fn sphere_fit_of_a_circle_leaves_the_height() {
         let pts: Vec<_> = (0..8)
             .map(|k| {
@@ -482,5 +515,6 @@ mod tests {
         let f = fit_sphere(&pts, Vector3::zeros());
         assert!((f.centre - Vector3::new(1.0, 2.0, 0.0)).norm() < 1e-9);
         assert!((f.radius - 5.0).abs() < 1e-9);
+        assert_eq!(f.rank, 3);
     }
 }
