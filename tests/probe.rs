@@ -557,6 +557,10 @@ fn what_cannot_be_followed_is_refused_at_its_place() {
             "p.nc:2:11: A in a probing move: probing moves must be straight moves in X, Y, Z",
         ),
         (
+            "G0 X0 Y0\nG38.2 Y-1 F50\nB5\n",
+            "p.nc:3:1: B in a probing move: probing moves must be straight moves in X, Y, Z",
+        ),
+        (
             "G0 X0\nG93\nG38.2 X10 F50\n",
             "p.nc:3:1: a probing move under inverse-time feed (G93)",
         ),

@@ -523,7 +523,10 @@ impl Pass<'_, '_> {
         let unit = |linear: bool| if state.inch && linear { INCH } else { 1.0 };
         // What kind of block is it?
         let probing = skip.is_some()
-            || (state.motion == Some(Motion::Probe) && !axis_words.is_empty() && !dwell && !data);
+            || (state.motion == Some(Motion::Probe)
+                && (!axis_words.is_empty() || other_axis.is_some())
+                && !dwell
+                && !data);
         if probing {
             let col = skip.or(block_motion.map(|m| m.1)).unwrap_or(0);
             self.probing_move(
