@@ -3,7 +3,8 @@
 //! The modules are the pipeline, in order: the NC document ([`nc`], lossless parse and
 //! emit) → the machine and its error model ([`model`]) → kinematics and the solve
 //! ([`kinematics`]) → the compensation pass ([`compensate`]). The command-line interface
-//! is a thin layer over these in the binary.
+//! is a thin layer over these in the binary. Beside the pipeline, [`probe`] compensates a
+//! touch probe's pre-travel by choosing the probing speed per direction (paper 001).
 
 pub mod compensate;
 pub mod diag;
@@ -11,6 +12,7 @@ pub mod identify;
 pub mod kinematics;
 pub mod model;
 pub mod nc;
+pub mod probe;
 pub mod workpiece;
 
 pub use diag::{Diagnostic, Error, Result};
