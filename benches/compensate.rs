@@ -68,7 +68,9 @@ fn bench(c: &mut Criterion) {
         let mut out = Vec::with_capacity(src.len() * 2);
         b.iter(|| {
             out.clear();
-            splitting.run(black_box(&src), "bench.nc", &mut out).unwrap()
+            splitting
+                .run(black_box(&src), "bench.nc", &mut out)
+                .unwrap()
         })
     });
     group.bench_function("parse and emit only (lines + tokens)", |b| {

@@ -60,5 +60,9 @@ fn mill_turn_demo_upper_turret() {
 
 #[test]
 fn tcp_program_on_the_ac_trunnion() {
-    insta::assert_snapshot!(compensate("ac_trunnion", "ac_trunnion_tcp", Options::default()));
+    insta::assert_snapshot!(compensate(
+        "ac_trunnion",
+        "ac_trunnion_tcp",
+        Options::default()
+    ));
 }
