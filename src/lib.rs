@@ -5,6 +5,7 @@
 //! ([`kinematics`]) → the compensation pass ([`compensate`]). The command-line interface
 //! is a thin layer over these in the binary.
 
+pub mod budget;
 pub mod compensate;
 pub mod diag;
 pub mod kinematics;
