@@ -190,7 +190,7 @@ pub fn parse(
                     ));
                 }
             };
-            ranges.push((term, levels.map(|l| l * f)));
+            ranges.push((term, levels.map(|l| convert(l, f))));
         }
     }
 
@@ -247,6 +247,17 @@ pub fn parse(
         units: [ln, an],
         factors: [lf, af],
     })
+}
+
+/// `v` file units in model units, `f` model units per file unit. A factor that is the
+/// inverse of a whole number (µm, µrad) divides, so 9 µm is 0.009 mm to the last digit.
+fn convert(v: f64, f: f64) -> f64 {
+    let inverse = 1.0 / f;
+    if f < 1.0 && (inverse - inverse.round()).abs() < 1e-6 {
+        v / inverse.round()
+    } else {
+        v * f
+    }
 }
 
 fn term(
@@ -439,7 +450,10 @@ fn tolerance(
         Ok(value)
     };
     let cost = positive("cost", "the quality loss `cost`")?;
-    let at = positive("at", &format!("the quality loss `at` ({})", units[0]))? * factors[0];
+    let at = convert(
+        positive("at", &format!("the quality loss `at` ({})", units[0]))?,
+        factors[0],
+    );
     options.loss = cost / (at * at);
 
     let Some(tv) = t.get("terms") else {
@@ -530,7 +544,7 @@ fn tolerance(
             None if term.is_length() => 1.0,
             None => 1000.0,
         };
-        let (lower, upper) = (lo * f, hi * f);
+        let (lower, upper) = (convert(*lo, f), convert(*hi, f));
         let start = match spec.get("start") {
             Some(s) => {
                 let x = doc.number(s, &format!("`start` ({unit})"))?;
@@ -540,7 +554,7 @@ fn tolerance(
                         format!("`start = {x}` is outside the bounds [{lo}, {hi}]"),
                     ));
                 }
-                x * f
+                convert(x, f)
             }
             None => (lower + upper) / 2.0,
         };
