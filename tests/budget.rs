@@ -351,3 +351,129 @@ fn the_svg_chart_holds_a_bar_per_share() {
     }
     assert!(svg.contains("EZZ *") && svg.contains("font-family=\"sans-serif\""));
 }
+
+/// The paper's grinder as its equations build it (section 2): the table (X) on the bed, the
+/// column (Y) on the bed, the headstock (Z) on the column, and the error frames where
+/// table 6 puts them. Table 6's lever arms give them away: at X = Y = Z = 5 mm the
+/// forming point is (50, 50, 0) mm from the table's frame origin and (55, 45, −5) mm from
+/// the headstock's, so the reference points (about which the angular errors act) are
+/// placed there.
+const PAPER_GRINDER: &str = r#"
+name = "surface grinder as in paper 002, section 2"
+workpiece_chain = ["X"]
+tool_chain = ["Y", "Z"]
+
+[axes.X]
+kind = "linear"
+direction = [-1, 0, 0]
+reference_point = [-45, -45, 5]
+
+[axes.Y]
+kind = "linear"
+direction = [0, 1, 0]
+reference_point = [-55, -45, 5]
+
+[axes.Z]
+kind = "linear"
+direction = [0, 0, 1]
+reference_point = [-55, -45, 5]
+"#;
+
+/// Table 6 as printed (ΔEx, ΔEy, ΔEz in mm for 1 µm or 10 µrad), its garbled subscripts
+/// read back by the order of table 2 (the paper's δ_ij, ε_ij, S as ISO 230 names).
+const TABLE_6: [(&str, [f64; 3]); 21] = [
+    ("EXX", [1.00e-03, 0.0, 0.0]),
+    ("EXY", [-1.00e-03, 0.0, 0.0]),
+    ("EXZ", [-1.00e-03, 0.0, 0.0]),
+    ("EYX", [0.0, 1.00e-03, 0.0]),
+    ("EYY", [0.0, -1.00e-03, 0.0]),
+    ("EYZ", [0.0, -1.00e-03, 0.0]),
+    ("EZX", [0.0, 0.0, 1.00e-03]),
+    ("EZY", [0.0, 0.0, -1.00e-03]),
+    ("EZZ", [0.0, 0.0, -1.00e-03]),
+    ("EAX", [0.0, 0.0, 5.00e-04]),
+    ("EAY", [0.0, 0.0, -4.50e-04]),
+    ("EAZ", [0.0, -5.00e-05, -4.50e-04]),
+    ("EBX", [0.0, 0.0, -5.00e-04]),
+    ("EBY", [0.0, 0.0, 5.50e-04]),
+    ("EBZ", [5.00e-05, 0.0, 5.50e-04]),
+    ("ECX", [-5.00e-04, 5.00e-04, 0.0]),
+    ("ECY", [4.50e-04, -5.50e-04, 0.0]),
+    ("ECZ", [4.50e-04, -5.50e-04, 0.0]),
+    ("EC0Y", [5.00e-04, -5.50e-04, 0.0]), // S_xy
+    ("EA0Z", [0.0, 0.0, -4.50e-04]),      // S_yz
+    ("EB0Z", [0.0, 0.0, 5.50e-04]),       // S_xz
+];
+
+#[test]
+fn with_the_papers_geometry_table_6_is_reproduced() {
+    let m = machine_file::parse(PAPER_GRINDER, "paper.machine.toml").unwrap();
+    let active = vec![0, 1, 2];
+    let pose = Poses::At(vec![vec![5.0, 5.0, 5.0]]);
+    let terms = default_terms(&m, &active);
+    let names: Vec<&str> = terms.iter().map(|t| t.name.as_str()).collect();
+    assert_eq!(names, TABLE_6.map(|(n, _)| n));
+    let probe = Probe::new(&m, 0, 0.0, &pose, terms.clone()).unwrap();
+    // One term at its unit, or for the paper's squareness (a static rotation of the
+    // column or headstock frame, which turns its direction of motion *and* its
+    // orientation) the contract's squareness plus the same constant angular error motion.
+    let with_orientation = |t: &str| match t {
+        "EC0Y" => Some("ECY"),
+        "EA0Z" => Some("EAZ"),
+        "EB0Z" => Some("EBZ"),
+        _ => None,
+    };
+    for (i, (name, paper)) in TABLE_6.iter().enumerate() {
+        let unit = if terms[i].is_length() { 1e-3 } else { 1e-5 };
+        let mut v = vec![0.0; terms.len()];
+        v[i] = unit;
+        if let Some(other) = with_orientation(name) {
+            v[names.iter().position(|n| *n == other).unwrap()] = unit;
+        }
+        let dp = probe.deviations(&v)[0].dp;
+        // The paper's E is the opposite of ours: its table 6 signs are those of
+        // P_work − P_tool (docs/budget.md).
+        for c in 0..3 {
+            assert!(
+                (-dp[c] - paper[c]).abs() < 1e-8,
+                "{name}: ours {dp:?}, the paper's {paper:?}"
+            );
+        }
+    }
+
+    // The ANOVA at the paper's pose with table 4's levels: the paper's key errors on top,
+    // but for the two squareness terms, which in the contract tilt Z's direction only
+    // (their E_z effect in the paper comes from the frame rotation, EAZ and EBZ here).
+    let b = budget(&grinder());
+    let levels: Vec<[f64; 3]> = terms
+        .iter()
+        .map(|t| b.ranges.iter().find(|(r, _)| r.name == t.name).unwrap().1)
+        .collect();
+    let mut options = b.ranking.clone();
+    options.samples = 256;
+    let r = ranking::rank(&probe, &levels, &options);
+    let mut key = r.key.clone();
+    key.sort();
+    let mut expected: Vec<&str> = PAPER_KEY
+        .iter()
+        .copied()
+        .filter(|k| *k != "EA0Z" && *k != "EB0Z")
+        .collect();
+    expected.sort();
+    assert_eq!(key, expected, "{:#?}", r.rows);
+    assert_eq!(r.key[0], "EZZ");
+    // The paper's table 5 sums of squares where the levers are the paper's.
+    let ss = |t: &str| r.anova.rows.iter().find(|x| x.term == t).unwrap().ss;
+    for (t, paper) in [
+        ("EZZ", 5.8073e-4),
+        ("EZY", 2.3415e-5),
+        ("EZX", 6.0287e-6),
+        ("EAX", 9.6337e-8),
+    ] {
+        assert!(
+            (ss(t) - paper).abs() < 0.1 * paper,
+            "{t}: {} vs {paper}",
+            ss(t)
+        );
+    }
+}
