@@ -87,8 +87,13 @@ struct BudgetCommon {
     grid: Option<usize>,
     /// The direction of the error that matters, in the workpiece frame, e.g. 0,0,1 (the
     /// budget file's `direction` by default, else Z).
-    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', num_args = 3)]
-    direction: Option<Vec<f64>>,
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    direction: Vec<f64>,
     /// Tool chain on machines with several.
     #[arg(long, value_name = "NAME")]
     tool_chain: Option<String>,
@@ -284,20 +289,23 @@ fn setup(common: &BudgetCommon, budget: Option<&Path>) -> nccomp::Result<Setup> 
     } else {
         Poses::Grid(3)
     };
-    let direction = match &common.direction {
-        Some(d) => {
-            let v = nalgebra::Vector3::new(d[0], d[1], d[2]);
-            if v.norm() == 0.0 || !v.norm().is_finite() {
-                return Err(usage(format!(
-                    "--direction {},{},{}: expected a non-zero direction such as 0,0,1",
-                    d[0], d[1], d[2]
-                )));
-            }
-            v.normalize()
-        }
-        None => budget
+    let direction = match common.direction.as_slice() {
+        [] => budget
             .as_ref()
             .map_or(nalgebra::Vector3::z(), |b| b.ranking.direction),
+        &[x, y, z] if (x * x + y * y + z * z) > 0.0 && (x + y + z).is_finite() => {
+            nalgebra::Vector3::new(x, y, z).normalize()
+        }
+        d => {
+            return Err(usage(format!(
+                "--direction {}: expected three numbers X,Y,Z of a non-zero direction, such as \
+                 0,0,1",
+                d.iter()
+                    .map(|v| v.to_string())
+                    .collect::<Vec<_>>()
+                    .join(",")
+            )));
+        }
     };
     Ok(Setup {
         machine,

@@ -141,6 +141,10 @@ fn tolerance_prints_the_design() {
     let start = json["tolerance"]["start"]["qc"].as_f64().unwrap();
     let optimum = json["tolerance"]["optimum"]["qc"].as_f64().unwrap();
     assert!(optimum < start);
+    // Another direction: the error along -X (a side wall) weighs other terms.
+    let out = nccomp(&["tolerance", "-m", M, "-b", B, "--direction", "-1,0,0"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stdout(&out).starts_with("Tolerance design along [-1, 0, 0]"));
     assert!(json.get("study").is_none());
     let out = nccomp(&["tolerance", "-m", M, "-b", B, "--format", "csv"]);
     assert!(stdout(&out).starts_with("term,unit,curve,length_mm,lower,upper"));
@@ -178,6 +182,7 @@ fn bad_input_exits_2_with_the_place() {
         vec!["sensitivity", "-m", M, "--terms", "EA0X"],
         vec!["sensitivity", "-m", M, "--unit-angle", "0"],
         vec!["sensitivity", "-m", M, "--direction", "0,0,0", "-b", B],
+        vec!["sensitivity", "-m", M, "--direction", "0,1", "-b", B],
         vec!["sensitivity", "-m", M, "--tool-chain", "upper"],
         vec!["sensitivity", "-m", "fixtures/none.toml"],
     ] {

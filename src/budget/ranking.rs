@@ -223,7 +223,13 @@ pub fn rank(probe: &Probe, levels: &[[f64; 3]], options: &RankingOptions) -> Ran
 /// Sentences naming where the rankings part: a term key by one and not the other, and key
 /// terms (of both) ranked differently.
 fn differences(rows: &[RankRow]) -> Vec<String> {
-    let pct = |v: f64| format!("{:.3} %", v * 100.0);
+    let pct = |v: f64| {
+        if (v * 100.0).abs() >= 0.01 || v == 0.0 {
+            format!("{:.3} %", v * 100.0)
+        } else {
+            format!("{:.2e} %", v * 100.0)
+        }
+    };
     let mut out = Vec::new();
     for r in rows {
         let within = (r.sobol_total - r.anova_share).abs() <= 2.0 * r.sobol_total_se;
