@@ -6,6 +6,7 @@
 //! is a thin layer over these in the binary. Beside the pipeline, [`probe`] compensates a
 //! touch probe's pre-travel by choosing the probing speed per direction (paper 001).
 
+pub mod budget;
 pub mod compensate;
 pub mod diag;
 pub mod identify;

@@ -109,7 +109,7 @@ fn listed(names: &[String]) -> Vec<String> {
 }
 
 /// Factors from the file's units to mm and rad.
-struct Units {
+pub(crate) struct Units {
     length: f64,
     angle: f64,
     length_name: String,
@@ -117,7 +117,7 @@ struct Units {
 }
 
 impl Units {
-    fn read(doc: &Doc, root: &DeTable) -> Result<Units> {
+    pub(crate) fn read(doc: &Doc, root: &DeTable) -> Result<Units> {
         let mut units = Units {
             length: 1e-3,
             angle: 1e-6,
@@ -161,7 +161,7 @@ impl Units {
     }
 
     /// The factor to mm or rad for a term of this quantity, and the file's unit name.
-    fn of(&self, q: Quantity) -> (f64, &str) {
+    pub(crate) fn of(&self, q: Quantity) -> (f64, &str) {
         match q {
             Quantity::Length => (self.length, &self.length_name),
             Quantity::Angle => (self.angle, &self.angle_name),

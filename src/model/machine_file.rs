@@ -526,7 +526,7 @@ fn chain(
 }
 
 /// "a string", "an integer", ... for messages.
-pub(super) fn describe(v: &DeValue) -> &'static str {
+pub(crate) fn describe(v: &DeValue) -> &'static str {
     match v {
         DeValue::String(_) => "a string",
         DeValue::Integer(_) => "an integer",
@@ -540,7 +540,7 @@ pub(super) fn describe(v: &DeValue) -> &'static str {
 
 /// A TOML file being checked: its name and text, and helpers that read spanned values
 /// and turn every problem into a `path:line:col` diagnostic. Shared with the error file.
-pub(super) struct Doc<'t> {
+pub(crate) struct Doc<'t> {
     pub path: &'t str,
     pub text: &'t str,
 }
