@@ -6,6 +6,9 @@
 //! errors; [`cutting`] finds where a program cut each planned point; [`simulate`] is the
 //! twin that cuts and measures a workpiece on a machine with known errors.
 
+pub mod cutting;
 pub mod fit;
 pub mod measure;
 pub mod plan;
+pub mod separate;
+pub mod simulate;
