@@ -340,6 +340,18 @@ fn compensate(args: &CompensateArgs) -> nccomp::Result<()> {
         let buf = std::fs::read(path).map_err(|e| nccomp::Error::io(path, e))?;
         (buf, path.display().to_string())
     };
+    for (value, name) in [
+        (args.tolerance, "--tolerance"),
+        (Some(args.angular_tolerance), "--angular-tolerance"),
+    ] {
+        if let Some(v) = value
+            && !(v.is_finite() && v > 0.0)
+        {
+            return Err(nccomp::Error::Usage(format!(
+                "{name} {v}: expected a positive number (mm for --tolerance, µrad for --angular-tolerance)"
+            )));
+        }
+    }
     let options = Options {
         tool_chain: args.tool_chain.clone(),
         allow_limit_violations: args.allow_limit_violations,

@@ -76,3 +76,41 @@ fn arcs_in_every_plane_land_on_their_nominal_circle() {
         }
     }
 }
+
+fn compensate_fixture(program: &str) -> Result<String, String> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let m = nccomp::model::machine_file::load(&root.join("ac_trunnion.machine.toml")).unwrap();
+    let e = nccomp::model::error_file::load(&root.join("ac_trunnion.errors.toml"), &m).unwrap();
+    let comp = Compensator::new(&m, &e, Options::default()).unwrap();
+    let mut out = Vec::new();
+    comp.run(program.as_bytes(), "a.nc", &mut out)
+        .map(|_| String::from_utf8(out).unwrap())
+        .map_err(|e| e.to_string())
+}
+
+#[test]
+fn the_first_piece_carries_the_arcs_modal_words() {
+    // G20 on the arc's own line must already hold for its first piece.
+    let out =
+        compensate_fixture("G21 G0 X10 Y0 Z2 A0 C0\nN40 G20 G3 X0 Y0.3937 I-0.3937 J0 F30.\n")
+            .unwrap();
+    let first_piece = out.lines().nth(1).unwrap();
+    assert!(
+        first_piece.contains("G20") && first_piece.contains(" G1 "),
+        "{first_piece}"
+    );
+    assert!(first_piece.contains("F30."), "{first_piece}");
+}
+
+#[test]
+fn arcs_are_refused_where_a_g1_would_be() {
+    let err = compensate_fixture("G0 X400. Y-100. Z10. A0 C0\nG3 X500. Y0 I0 J100.\n").unwrap_err();
+    assert!(
+        err.contains("a.nc:2:1:") && err.contains("outside its travel"),
+        "{err}"
+    );
+    let err = compensate_fixture("G0 X10 Y0 Z2 A0 C0\nG2 X0 Y-10 I-10 J0 M8\n").unwrap_err();
+    assert!(err.contains("M or T word"), "{err}");
+    let err = compensate_fixture("G0 X10 Y0 Z2 A0 C0\nG93 G2 X0 Y-10 I-10 J0\n").unwrap_err();
+    assert!(err.contains("G93"), "{err}");
+}

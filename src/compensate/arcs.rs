@@ -3,9 +3,11 @@
 //! A controller interpolates an arc in the program's coordinates; on a machine with errors
 //! no arc in axis space traces the intended arc on the part. nccomp replaces each arc by
 //! straight pieces whose chords stay within half a micron of the nominal arc, each piece's
-//! end compensated like any block (and split further with `--tolerance`). The arc's own line
-//! becomes the last piece: its G2/G3 turns into G1 and its I/J/K/R words go; the pieces
-//! before it are inserted in the program's style.
+//! end compensated like any block (pieces are not split further by `--tolerance`; they are
+//! short already). The arc's own line becomes the last piece: its G2/G3 turns into G1 and
+//! its I/J/K/R words go; the pieces before it are inserted in the program's style, the
+//! first one carrying the block's G, H, D, S and F words so every piece runs as the block
+//! would. A block with M or T words is refused: they would run after the pieces.
 
 use super::exact::Position;
 use super::split::Style;
@@ -73,6 +75,22 @@ impl Compensator<'_> {
         }
         if state.tcp {
             return refuse("arcs under G43.4 are not supported");
+        }
+        if let Some(t) = tokens
+            .iter()
+            .find(|t| matches!(&t.kind, TokenKind::Word(w) if matches!(w.letter, b'M' | b'T')))
+        {
+            return Err(at(
+                t.span.start,
+                "this arc cannot be compensated with an M or T word in its block: the word would run only after the arc's first pieces (put it in a block of its own)".into(),
+            ));
+        }
+        if state.inverse_time
+            && !tokens
+                .iter()
+                .any(|t| matches!(&t.kind, TokenKind::Word(w) if w.letter == b'F'))
+        {
+            return refuse("in inverse-time feed (G93) an arc needs its own F word");
         }
         if state.unknown != 0
             || (0..n).any(|v| state.programmed & (1 << v) == 0 && axis_words[v].is_none())
@@ -197,11 +215,23 @@ impl Compensator<'_> {
             let sol = self
                 .kin
                 .compensate(&q[..n], state.length, self.hold, &self.options.solve);
+            self.check_piece(&q, &sol.q, col, at)?;
             let mut words: Vec<String> = Vec::new();
             if let Some(number) = &numbers[k - 1] {
                 words.push(style.letter(b'N') + number);
             }
             if k == 1 {
+                // The block's own modal words, so the first piece runs as the block would.
+                for (ti, t) in tokens.iter().enumerate() {
+                    if let TokenKind::Word(w) = &t.kind
+                        && matches!(w.letter, b'G' | b'H' | b'D' | b'S')
+                        && Some(ti) != motion.arc_code
+                    {
+                        words.push(
+                            String::from_utf8_lossy(&line.content[t.span.clone()]).into_owned(),
+                        );
+                    }
+                }
                 words.push(style.letter(b'G') + "1");
             }
             for &v in &order {
@@ -239,12 +269,13 @@ impl Compensator<'_> {
                     words.push(String::from_utf8_lossy(&line.content[f.span.clone()]).into_owned());
                 }
             }
-            let (after, _) = self.kin.pose(
+            let (after, beyond) = self.kin.pose(
                 crate::kinematics::Model::Actual,
                 &state.emitted[..n],
                 state.length,
             );
             let (ap, ad) = after.deviation(&sol.target);
+            summary.motion_blocks += 1;
             summary.record(
                 line.number,
                 sol.start_position_error,
@@ -252,7 +283,7 @@ impl Compensator<'_> {
                 ap,
                 ad,
                 sol.singular != 0,
-                false,
+                beyond,
             );
             let _ = write!(text, "{}{}", words.join(style.separator), ending);
         }
@@ -315,6 +346,7 @@ impl Compensator<'_> {
         let sol = self
             .kin
             .compensate(&end[..n], state.length, self.hold, &self.options.solve);
+        self.check_piece(&end, &sol.q, col, at)?;
         summary.motion_blocks += 1;
         summary.note_arc(line.number, pieces - 1);
         self.write_positions(
@@ -335,6 +367,54 @@ impl Compensator<'_> {
             sol.singular != 0,
             beyond,
         );
+        Ok(())
+    }
+
+    /// A piece's nominal point must lie within the travel, and its correction must be
+    /// small (as for any block).
+    fn check_piece(
+        &self,
+        nominal: &[f64; MAX_AXES],
+        compensated: &[f64; MAX_AXES],
+        col: usize,
+        at: &dyn Fn(usize, String) -> Diagnostic,
+    ) -> Result<(), Diagnostic> {
+        for v in 0..self.kin.len() {
+            if let Some([lo, hi]) = self.travel(v)
+                && !self.options.allow_limit_violations
+            {
+                for (x, what) in [
+                    (nominal[v], "the arc takes"),
+                    (compensated[v], "after compensation the arc takes"),
+                ] {
+                    if x < lo - 1e-9 || x > hi + 1e-9 {
+                        return Err(at(
+                            col,
+                            format!(
+                                "{what} axis {} to {x:.4}, outside its travel {lo} … {hi} (use --allow-limit-violations to write it anyway)",
+                                self.axis_name(v)
+                            ),
+                        ));
+                    }
+                }
+            }
+            let delta = (compensated[v] - nominal[v]).abs();
+            let limit = if self.is_linear(v) {
+                self.options.max_correction.0
+            } else {
+                self.options.max_correction.1
+            };
+            if delta.is_nan() || delta > limit {
+                return Err(at(
+                    col,
+                    format!(
+                        "the correction of axis {} would be {delta:.4} {} on this arc (more than {limit}); the error model or this pose is not sound",
+                        self.axis_name(v),
+                        if self.is_linear(v) { "mm" } else { "°" }
+                    ),
+                ));
+            }
+        }
         Ok(())
     }
 }

@@ -384,7 +384,7 @@ impl<'m> Compensator<'m> {
             ));
         }
         let previous = state.nominal;
-        let start_known = state.programmed | state.unknown;
+        let start_known = state.programmed & !state.unknown;
         // New nominal values; `units[v]`: a G91 word's value exactly.
         let mut units = [0i128; MAX_AXES];
         for (v, word) in axis_words.iter().enumerate().take(n) {

@@ -122,6 +122,24 @@ impl Compensator<'_> {
                 }
             }
             s_before = piece.s;
+            if let Some(sol) = &piece.solution {
+                let (after, beyond) = self.kin.pose(
+                    crate::kinematics::Model::Actual,
+                    &state.emitted[..n],
+                    state.length,
+                );
+                let (ap, ad) = after.deviation(&sol.target);
+                summary.motion_blocks += 1;
+                summary.record(
+                    line.number,
+                    sol.start_position_error,
+                    sol.start_direction_error,
+                    ap,
+                    ad,
+                    sol.singular != 0,
+                    beyond,
+                );
+            }
             let _ = write!(text, "{}{}", words.join(style.separator), ending);
         }
         if state.inverse_time
@@ -161,7 +179,8 @@ impl Compensator<'_> {
         let Some((value, text)) = own else {
             return vec![None; count];
         };
-        let width = text.len();
+        // Zero padding only where the program pads (N0010), never a new leading zero.
+        let width = if text.starts_with('0') { text.len() } else { 0 };
         match state.last_n {
             Some((prev, _)) if value > prev && (value - prev - 1) as usize >= count => (1..=count)
                 .map(|i| Some(format!("{:0width$}", prev + i as u64)))

@@ -218,7 +218,7 @@ impl fmt::Display for Summary {
         if self.moves_split > 0 {
             write!(
                 f,
-                "\n{} split to keep them on their path (first at line {}): {} added",
+                "\n{} split to stay on the nominal path (first at line {}): {} added",
                 count(self.moves_split, "move"),
                 self.first_split,
                 count(self.blocks_added, "block")
@@ -235,7 +235,7 @@ impl fmt::Display for Summary {
         if self.unsplit_moves > 0 {
             write!(
                 f,
-                "\nnote: {} kept whole though their path strays (M or T words, or G93 without F; first at line {})",
+                "\nnote: {} kept whole although the path strays (M or T words, or G93 without F; first at line {})",
                 count(self.unsplit_moves, "move"),
                 self.first_unsplit
             )?;
