@@ -327,7 +327,7 @@ fn check_bounds(map: &DirectionMap, v: &[f64], opts: &SpeedOptions) -> crate::Re
     }
     let span = hi - lo;
     msg += &format!(
-        ". In all it needs {lo:.2} … {hi:.2} mm/min (a span of {span:.2} mm/min: a variation of {:.2} µm ÷ τ = {} ms)",
+        ". In all it needs {lo:.2} … {hi:.2} mm/min (a span of {span:.2} mm/min: a variation of {:.2} µm ÷ τ = {:.3} ms)",
         speed_term(span, opts.tau_ms) * 1000.0,
         opts.tau_ms
     );
