@@ -327,9 +327,12 @@ fn check_bounds(map: &DirectionMap, v: &[f64], opts: &SpeedOptions) -> crate::Re
     }
     let span = hi - lo;
     msg += &format!(
-        ". In all it needs {lo:.2} … {hi:.2} mm/min (a span of {span:.2} mm/min: a variation of {:.2} µm ÷ τ = {:.3} ms)",
+        ". In all it needs {lo:.2} … {hi:.2} mm/min (a span of {span:.2} mm/min: a variation of {:.2} µm ÷ τ = {} ms)",
         speed_term(span, opts.tau_ms) * 1000.0,
-        opts.tau_ms
+        // At most three decimals, none trailing: 12.68, 12.615.
+        format!("{:.3}", opts.tau_ms)
+            .trim_end_matches('0')
+            .trim_end_matches('.')
     );
     let lo_bound = opts.min_feed.unwrap_or(0.0).max(0.0);
     let hi_bound = opts.max_feed.unwrap_or(f64::INFINITY);
