@@ -269,22 +269,7 @@ impl Compensator<'_> {
                     words.push(String::from_utf8_lossy(&line.content[f.span.clone()]).into_owned());
                 }
             }
-            let (after, beyond) = self.kin.pose(
-                crate::kinematics::Model::Actual,
-                &state.emitted[..n],
-                state.length,
-            );
-            let (ap, ad) = after.deviation(&sol.target);
-            summary.motion_blocks += 1;
-            summary.record(
-                line.number,
-                sol.start_position_error,
-                sol.start_direction_error,
-                ap,
-                ad,
-                sol.singular != 0,
-                beyond,
-            );
+            self.record_block(line.number, &sol, state, summary);
             let _ = write!(text, "{}{}", words.join(style.separator), ending);
         }
         if pieces > 1 {
@@ -347,26 +332,11 @@ impl Compensator<'_> {
             .kin
             .compensate(&end[..n], state.length, self.hold, &self.options.solve);
         self.check_piece(&end, &sol.q, col, at)?;
-        summary.motion_blocks += 1;
         summary.note_arc(line.number, pieces - 1);
         self.write_positions(
             line, tokens, axis_words, &sol.q, false, state, edits, summary, at,
         )?;
-        let (after, beyond) = self.kin.pose(
-            crate::kinematics::Model::Actual,
-            &state.emitted[..n],
-            state.length,
-        );
-        let (ap, ad) = after.deviation(&sol.target);
-        summary.record(
-            line.number,
-            sol.start_position_error,
-            sol.start_direction_error,
-            ap,
-            ad,
-            sol.singular != 0,
-            beyond,
-        );
+        self.record_block(line.number, &sol, state, summary);
         Ok(())
     }
 

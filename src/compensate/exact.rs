@@ -178,26 +178,7 @@ pub(super) fn increment(from: i128, target: f64, decimals: u8, inch: bool) -> Op
 /// Append `mantissa · 10^-decimals` with exactly `decimals` digits after the point (no
 /// point for 0), never a negative zero: as `write_fixed` writes numbers.
 pub(super) fn write_digits(mantissa: i128, decimals: u8, out: &mut String) {
-    if mantissa < 0 {
-        out.push('-');
-    }
-    let digits = mantissa.unsigned_abs().to_string();
-    let d = usize::from(decimals);
-    if digits.len() <= d {
-        out.push('0');
-        if d > 0 {
-            out.push('.');
-            out.extend(std::iter::repeat_n('0', d - digits.len()));
-        }
-        out.push_str(&digits);
-    } else {
-        let split = digits.len() - d;
-        out.push_str(&digits[..split]);
-        if d > 0 {
-            out.push('.');
-            out.push_str(&digits[split..]);
-        }
-    }
+    crate::nc::number::write_scaled(mantissa, decimals, out);
 }
 
 #[cfg(test)]

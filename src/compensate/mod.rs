@@ -651,6 +651,32 @@ impl<'m> Compensator<'m> {
         Ok(())
     }
 
+    /// Count a compensated block (or inserted piece) and record what the model predicts for
+    /// it, at the axis values the machine is now told.
+    fn record_block(
+        &self,
+        line: usize,
+        sol: &crate::kinematics::Solution,
+        state: &State,
+        summary: &mut Summary,
+    ) {
+        let n = self.kin.len();
+        let (after, beyond) = self
+            .kin
+            .pose(Model::Actual, &state.emitted[..n], state.length);
+        let (ap, ad) = after.deviation(&sol.target);
+        summary.motion_blocks += 1;
+        summary.record(
+            line,
+            sol.start_position_error,
+            sol.start_direction_error,
+            ap,
+            ad,
+            sol.singular != 0,
+            beyond,
+        );
+    }
+
     fn travel(&self, var: usize) -> Option<[f64; 2]> {
         self.machine.axes[self.kin.axes()[var]].travel
     }

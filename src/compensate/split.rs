@@ -123,22 +123,7 @@ impl Compensator<'_> {
             }
             s_before = piece.s;
             if let Some(sol) = &piece.solution {
-                let (after, beyond) = self.kin.pose(
-                    crate::kinematics::Model::Actual,
-                    &state.emitted[..n],
-                    state.length,
-                );
-                let (ap, ad) = after.deviation(&sol.target);
-                summary.motion_blocks += 1;
-                summary.record(
-                    line.number,
-                    sol.start_position_error,
-                    sol.start_direction_error,
-                    ap,
-                    ad,
-                    sol.singular != 0,
-                    beyond,
-                );
+                self.record_block(line.number, sol, state, summary);
             }
             let _ = write!(text, "{}{}", words.join(style.separator), ending);
         }

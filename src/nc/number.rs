@@ -39,31 +39,37 @@ pub fn same_text(a: f64, b: f64, decimals: u8) -> bool {
     }
 }
 
+/// Append the integer `mantissa · 10^-decimals` with exactly `decimals` digits after the
+/// point (no point for 0), never a negative zero.
+pub fn write_scaled(mantissa: i128, decimals: u8, out: &mut String) {
+    if mantissa < 0 {
+        out.push('-');
+    }
+    let digits = mantissa.unsigned_abs().to_string();
+    let d = usize::from(decimals);
+    if digits.len() <= d {
+        out.push('0');
+        if d > 0 {
+            out.push('.');
+            out.extend(std::iter::repeat_n('0', d - digits.len()));
+        }
+        out.push_str(&digits);
+    } else {
+        let split = digits.len() - d;
+        out.push_str(&digits[..split]);
+        if d > 0 {
+            out.push('.');
+            out.push_str(&digits[split..]);
+        }
+    }
+}
+
 /// Append `value` with exactly `decimals` digits after the point (no point for 0) and never
 /// a negative zero.
 pub fn write_fixed(value: f64, decimals: u8, out: &mut String) {
     // Hot path: integer digits, no float formatting (which is slow for fixed precision).
     if let Some(n) = scaled(value, decimals) {
-        if n < 0 {
-            out.push('-');
-        }
-        let digits = n.unsigned_abs().to_string();
-        let d = usize::from(decimals);
-        if digits.len() <= d {
-            out.push('0');
-            if d > 0 {
-                out.push('.');
-                out.extend(std::iter::repeat_n('0', d - digits.len()));
-            }
-            out.push_str(&digits);
-        } else {
-            let split = digits.len() - d;
-            out.push_str(&digits[..split]);
-            if d > 0 {
-                out.push('.');
-                out.push_str(&digits[split..]);
-            }
-        }
+        write_scaled(i128::from(n), decimals, out);
         return;
     }
     let start = out.len();
