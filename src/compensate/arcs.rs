@@ -92,10 +92,8 @@ impl Compensator<'_> {
         {
             return refuse("in inverse-time feed (G93) an arc needs its own F word");
         }
-        if state.unknown != 0
-            || (0..n).any(|v| state.programmed & (1 << v) == 0 && axis_words[v].is_none())
-        {
-            return refuse("the arc starts where the program has not set every axis");
+        if state.unknown != 0 {
+            return refuse("the arc starts where G28, G30 or G53 left an axis at an unknown place");
         }
         let Some((plane, centre_letters)) = plane_letters(state.plane) else {
             return refuse("arcs in a U/V/W plane (G17.1, G18.1, G19.1) are not supported");
@@ -107,6 +105,16 @@ impl Compensator<'_> {
         let (Some(va), Some(vb)) = (var(plane[0]), var(plane[1])) else {
             return refuse("the machine has no linear axes for this arc plane");
         };
+        // The arc's start in its plane must be known; other axes the program never set are
+        // taken at home (0), as for straight moves, and the summary says so.
+        if (state.programmed & (1 << va)) == 0 || (state.programmed & (1 << vb)) == 0 {
+            return refuse("the program has not yet set where the arc starts in its plane");
+        }
+        for v in 0..n {
+            if state.programmed & (1 << v) == 0 && axis_words[v].is_none() {
+                summary.note_assumed_home(self.axis_name(v), line.number);
+            }
+        }
         let number = |i: usize| match &tokens[i].kind {
             TokenKind::Word(w) => match w.value {
                 Value::Number { value, .. } => value,
