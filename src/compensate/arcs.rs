@@ -110,8 +110,8 @@ impl Compensator<'_> {
         if (state.programmed & (1 << va)) == 0 || (state.programmed & (1 << vb)) == 0 {
             return refuse("the program has not yet set where the arc starts in its plane");
         }
-        for v in 0..n {
-            if state.programmed & (1 << v) == 0 && axis_words[v].is_none() {
+        for (v, word) in axis_words.iter().enumerate().take(n) {
+            if state.programmed & (1 << v) == 0 && word.is_none() {
                 summary.note_assumed_home(self.axis_name(v), line.number);
             }
         }
