@@ -20,7 +20,7 @@ use crate::diag::{Diagnostic, Error};
 use crate::kinematics::{Kinematics, MAX_AXES, Model, SolveOptions};
 use crate::model::{AxisKind, ErrorModel, Machine};
 use crate::nc::number::{decimals_for, scaled};
-use crate::nc::{self, Token, TokenKind, Value};
+use crate::nc::{self, Edit, Token, TokenKind, Value};
 use exact::Position;
 use gcodes::GCode;
 use words::{BlockMotion, MoveKind};
@@ -128,13 +128,6 @@ struct State {
     optional_line: [usize; MAX_AXES],
     /// Line of the optional block that left variable k unsettled.
     corrected_line: [usize; MAX_AXES],
-}
-
-/// A change to one line: replace a byte range, or insert at a position (empty range).
-#[derive(Debug, Clone)]
-struct Edit {
-    at: std::ops::Range<usize>,
-    text: String,
 }
 
 impl<'m> Compensator<'m> {
@@ -290,19 +283,7 @@ impl<'m> Compensator<'m> {
             }) {
                 state.last_n = Some(number);
             }
-            if edits.is_empty() {
-                out.extend_from_slice(line.content);
-            } else {
-                edits.sort_by_key(|e| (e.at.start, e.at.end));
-                let mut pos = 0;
-                for e in &edits {
-                    out.extend_from_slice(&line.content[pos..e.at.start]);
-                    out.extend_from_slice(e.text.as_bytes());
-                    pos = e.at.end;
-                }
-                out.extend_from_slice(&line.content[pos..]);
-            }
-            out.extend_from_slice(line.ending);
+            nc::emit_line(&line, &mut edits, out);
         }
         if !errors.is_empty() {
             return Err(Error::Inputs(errors));

@@ -84,3 +84,25 @@ impl Word {
         }
     }
 }
+
+/// A change to one line: replace the bytes `at` (relative to the line's content) by `text`;
+/// an empty range inserts.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Edit {
+    pub at: Range<usize>,
+    pub text: String,
+}
+
+/// Append `line` to `out` with `edits` applied (sorted here; edits at the same place keep
+/// their order), then its line ending. Bytes no edit touches are copied as they were.
+pub fn emit_line(line: &Line<'_>, edits: &mut [Edit], out: &mut Vec<u8>) {
+    edits.sort_by_key(|e| (e.at.start, e.at.end));
+    let mut pos = 0;
+    for e in edits.iter() {
+        out.extend_from_slice(&line.content[pos..e.at.start]);
+        out.extend_from_slice(e.text.as_bytes());
+        pos = e.at.end;
+    }
+    out.extend_from_slice(&line.content[pos..]);
+    out.extend_from_slice(line.ending);
+}

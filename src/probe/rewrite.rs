@@ -23,7 +23,7 @@ use crate::diag::{Diagnostic, Error};
 use crate::kinematics::{Kinematics, Model};
 use crate::model::{AxisKind, ErrorModel, Machine};
 use crate::nc::number::{decimals_for, fixed, same_text};
-use crate::nc::{self, Token, TokenKind, Value};
+use crate::nc::{self, Edit, Token, TokenKind, Value};
 use nalgebra::{Rotation3, Unit, Vector3};
 
 /// Millimetres per inch.
@@ -248,11 +248,6 @@ struct State {
     restore: Option<usize>,
 }
 
-struct Edit {
-    at: std::ops::Range<usize>,
-    text: String,
-}
-
 struct Pass<'a, 'm> {
     axes: Vec<AxisInfo>,
     frame: FrameSource<'m>,
@@ -334,15 +329,7 @@ pub fn rewrite(
                 break;
             }
         }
-        edits.sort_by_key(|e| (e.at.start, e.at.end));
-        let mut pos = 0;
-        for e in &edits {
-            out.extend_from_slice(&line.content[pos..e.at.start]);
-            out.extend_from_slice(e.text.as_bytes());
-            pos = e.at.end;
-        }
-        out.extend_from_slice(&line.content[pos..]);
-        out.extend_from_slice(line.ending);
+        nc::emit_line(&line, &mut edits, out);
     }
     if !errors.is_empty() {
         return Err(Error::Inputs(errors));
