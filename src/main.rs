@@ -282,17 +282,12 @@ struct CompensateArgs {
     #[arg(long)]
     allow_limit_violations: bool,
     /// Split G1 moves whose compensated path strays more than this (mm) from the nominal
-    /// path between block ends, by inserting blocks (off by default: one block out for
-    /// every block in).
-    #[arg(long, value_name = "MM")]
-    tolerance: Option<f64>,
-    /// With --tolerance: the tool direction's tolerance along the path, in µrad.
-    #[arg(
-        long,
-        value_name = "URAD",
-        default_value_t = 10.0,
-        requires = "tolerance"
-    )]
+    /// path between block ends, by inserting blocks; `off` keeps one block out for every
+    /// block in (arcs aside).
+    #[arg(long, value_name = "MM|off", default_value = "0.001", value_parser = path_tolerance)]
+    tolerance: PathLimit,
+    /// The tool direction's tolerance along the path, in µrad.
+    #[arg(long, value_name = "URAD", default_value_t = 10.0)]
     angular_tolerance: f64,
     /// Print no summary.
     #[arg(long, short = 'q')]
@@ -313,6 +308,22 @@ fn main() -> ExitCode {
             eprintln!("{}", e.render());
             ExitCode::from(EXIT_BAD_INPUT)
         }
+    }
+}
+
+/// `--tolerance`: a distance in mm, or `off`.
+#[derive(Debug, Clone, Copy)]
+struct PathLimit(Option<f64>);
+
+fn path_tolerance(text: &str) -> Result<PathLimit, String> {
+    if text.eq_ignore_ascii_case("off") {
+        return Ok(PathLimit(None));
+    }
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(PathLimit(Some(v))),
+        _ => Err(format!(
+            "expected a positive distance in mm (e.g. 0.001) or `off`, found `{text}`"
+        )),
     }
 }
 
@@ -340,17 +351,11 @@ fn compensate(args: &CompensateArgs) -> nccomp::Result<()> {
         let buf = std::fs::read(path).map_err(|e| nccomp::Error::io(path, e))?;
         (buf, path.display().to_string())
     };
-    for (value, name) in [
-        (args.tolerance, "--tolerance"),
-        (Some(args.angular_tolerance), "--angular-tolerance"),
-    ] {
-        if let Some(v) = value
-            && !(v.is_finite() && v > 0.0)
-        {
-            return Err(nccomp::Error::Usage(format!(
-                "{name} {v}: expected a positive number (mm for --tolerance, µrad for --angular-tolerance)"
-            )));
-        }
+    let v = args.angular_tolerance;
+    if !(v.is_finite() && v > 0.0) {
+        return Err(nccomp::Error::Usage(format!(
+            "--angular-tolerance {v}: expected a positive number of µrad"
+        )));
     }
     let options = Options {
         tool_chain: args.tool_chain.clone(),
@@ -358,6 +363,7 @@ fn compensate(args: &CompensateArgs) -> nccomp::Result<()> {
         hold: args.hold.clone(),
         path: args
             .tolerance
+            .0
             .map(|mm| nccomp::kinematics::path::PathTolerance {
                 position: mm,
                 direction: args.angular_tolerance * 1e-6,

@@ -60,10 +60,49 @@ fn compensates_the_feature_workpiece_into_a_file() {
     assert!(err.contains("predicted tip error"), "{err}");
     let written = std::fs::read_to_string(&out_path).unwrap();
     let input = std::fs::read_to_string("fixtures/feature_workpiece.nc").unwrap();
-    assert_eq!(written.lines().count(), input.lines().count());
+    // The default path tolerance (1 µm) splits moves; the summary counts the new blocks.
+    let added: usize = err
+        .lines()
+        .find_map(|l| {
+            l.split(": ")
+                .nth(1)?
+                .strip_suffix(" blocks added")?
+                .parse()
+                .ok()
+        })
+        .unwrap_or_else(|| panic!("no count of added blocks in the summary:\n{err}"));
+    assert!(added > 0);
+    assert_eq!(written.lines().count(), input.lines().count() + added);
     assert_ne!(written, input);
     // Nothing but the output is left in the directory.
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+
+    // `--tolerance off`: one block out for every block in.
+    let out = nccomp(&[
+        "compensate",
+        "--machine",
+        M,
+        "--errors",
+        E,
+        "fixtures/feature_workpiece.nc",
+        "--tolerance",
+        "off",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(!stderr(&out).contains("blocks added"));
+    let one_to_one = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(one_to_one.lines().count(), input.lines().count());
+}
+
+#[test]
+fn a_bad_tolerance_is_a_usage_error() {
+    for bad in ["0", "-1", "1e", "none"] {
+        let flag = format!("--tolerance={bad}");
+        let out = nccomp(&["compensate", "-m", M, "-e", E, &flag, "x.nc"]);
+        assert_eq!(out.status.code(), Some(2), "--tolerance {bad}");
+        let err = stderr(&out);
+        assert!(err.contains("expected a positive distance in mm"), "{err}");
+    }
 }
 
 #[test]

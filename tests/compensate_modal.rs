@@ -779,6 +779,9 @@ fn the_command_line_runs_a_program_with_g53_and_g28() {
             "-e",
             "fixtures/ac_trunnion.errors.toml",
             "fixtures/ac_trunnion_g28_g53.nc",
+            // Lines are compared one to one below.
+            "--tolerance",
+            "off",
         ])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output()

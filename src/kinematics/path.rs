@@ -151,12 +151,41 @@ impl Kinematics {
             options,
         );
         let fine = dev.position <= tol.position && dev.direction <= tol.direction;
-        if fine || depth >= tol.max_depth {
+        if fine {
             out.push(Piece {
                 s: s1,
                 q: c1,
                 solution: sol1,
             });
+            return;
+        }
+        if depth >= tol.max_depth {
+            // Halving does not help where the solution jumps: a rotary axis entering or
+            // leaving the singular cone goes from corrected to held within any interval
+            // around the edge. Swing it across in steps with the tip kept on the path.
+            let (p0, j0) = self.pose_and_jacobian(Model::Nominal, &n0[..n], length);
+            let (p1, j1) = self.pose_and_jacobian(Model::Nominal, &n1[..n], length);
+            let switching = (self.singular_axes(&p0, &j0, options.singular_angle)
+                ^ self.singular_axes(&p1, &j1, options.singular_angle))
+                & !hold;
+            if switching != 0 {
+                self.transition(
+                    (qa, qb),
+                    (s0, c0),
+                    (s1, c1, sol1),
+                    length,
+                    hold | switching,
+                    tol,
+                    options,
+                    out,
+                );
+            } else {
+                out.push(Piece {
+                    s: s1,
+                    q: c1,
+                    solution: sol1,
+                });
+            }
             return;
         }
         let mid = 0.5 * (s0 + s1);
@@ -187,5 +216,77 @@ impl Kinematics {
             depth + 1,
             out,
         );
+    }
+
+    /// Pieces from `c0` to `c1` across a jump of the axes in `swing` (held on one side,
+    /// corrected on the other): the swung axes step linearly from their value at `c0` to
+    /// that at `c1` while the other axes are solved to keep the tip on the nominal path,
+    /// with as many steps as the position tolerance needs. The direction is not held to
+    /// its tolerance here: at the cone's edge it is what the hold leaves anyway.
+    #[allow(clippy::too_many_arguments)]
+    fn transition(
+        &self,
+        (qa, qb): (&[f64], &[f64]),
+        (s0, c0): (f64, [f64; MAX_AXES]),
+        (s1, c1, sol1): (f64, [f64; MAX_AXES], Option<Solution>),
+        length: f64,
+        swing: u32,
+        tol: &PathTolerance,
+        options: &SolveOptions,
+        out: &mut Vec<Piece>,
+    ) {
+        let n = self.len();
+        let position_only = PathTolerance {
+            direction: f64::INFINITY,
+            ..*tol
+        };
+        let mut steps = 2usize;
+        loop {
+            let mut pieces = Vec::with_capacity(steps);
+            let mut prev = (s0, c0);
+            let mut within = true;
+            for k in 1..=steps {
+                let f = k as f64 / steps as f64;
+                let (s, q, sol) = if k == steps {
+                    (s1, c1, sol1)
+                } else {
+                    let s = s0 + (s1 - s0) * f;
+                    let mut qn = [0.0; MAX_AXES];
+                    lerp(&qa[..n], &qb[..n], s, &mut qn);
+                    let mut start = qn;
+                    for v in 0..n {
+                        if swing & (1 << v) != 0 {
+                            start[v] = c0[v] + (c1[v] - c0[v]) * f;
+                        }
+                    }
+                    let (target, _) = self.pose(Model::Nominal, &qn[..n], length);
+                    let sol =
+                        self.solve(Model::Actual, &target, &start[..n], length, swing, options);
+                    (s, sol.q, Some(sol))
+                };
+                let (mut n0, mut n1) = ([0.0; MAX_AXES], [0.0; MAX_AXES]);
+                lerp(&qa[..n], &qb[..n], prev.0, &mut n0);
+                lerp(&qa[..n], &qb[..n], s, &mut n1);
+                let dev = self.deviation(
+                    (&n0[..n], &n1[..n]),
+                    (&prev.1[..n], &q[..n]),
+                    length,
+                    &[0.25, 0.5, 0.75],
+                    options,
+                );
+                within &= dev.position <= position_only.position;
+                pieces.push(Piece {
+                    s,
+                    q,
+                    solution: sol,
+                });
+                prev = (s, q);
+            }
+            if within || steps >= 1 << tol.max_depth {
+                out.extend(pieces);
+                return;
+            }
+            steps *= 2;
+        }
     }
 }
