@@ -151,12 +151,17 @@ pub fn along_program(samples: &[Sample], what: Along) -> Result<String, String> 
     let clamp = |v: Vec<(f64, f64)>| -> Vec<(f64, f64)> {
         v.into_iter().map(|(x, y)| (x, y.max(bottom))).collect()
     };
+    let caption = if max > 0.0 {
+        title.to_string()
+    } else {
+        format!("{title}: zero at every line")
+    };
     svg((1100, 380), |root| {
         if samples.is_empty() {
             return no_data(root, title);
         }
         let mut chart = ChartBuilder::on(root)
-            .caption(title, font(18))
+            .caption(caption, font(18))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(70)
