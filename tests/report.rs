@@ -356,3 +356,45 @@ fn the_report_renders_its_plots_in_headless_chromium() {
     std::fs::copy(&shot, &keep).unwrap();
     eprintln!("screenshot: {}", keep.display());
 }
+
+#[test]
+fn cli_refuses_bad_requests_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("report.html");
+    let bad_program = dir.path().join("g81.nc");
+    std::fs::write(
+        &bad_program,
+        "G90 G1 X10 Y10 Z5 A0 C0\nG81 X10 Y10 Z-5 R2 F100\n",
+    )
+    .unwrap();
+    let run = |extra: &[&str], program: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_nccomp"))
+            .args(["report", "--machine", MACHINE, "--errors", ERRORS])
+            .arg(program)
+            .args(extra)
+            .arg("-o")
+            .arg(&page)
+            .output()
+            .unwrap()
+    };
+    for (extra, program, message) in [
+        (
+            &["--at", "X=5"][..],
+            Path::new(PROGRAM),
+            "span the map's grid",
+        ),
+        (&["--at", "A=1,Q=2"][..], Path::new(PROGRAM), "no axis `Q`"),
+        (
+            &["--grid", "500"][..],
+            Path::new(PROGRAM),
+            "--grid 500: expected 2 to 101",
+        ),
+        (&[][..], bad_program.as_path(), "g81.nc:2:1: "),
+    ] {
+        let out = run(extra, program);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{extra:?}: {stderr}");
+        assert!(stderr.contains(message), "{extra:?}: {stderr}");
+        assert!(!page.exists(), "{extra:?}");
+    }
+}

@@ -341,8 +341,7 @@ pub fn convert(
             }
         }
     }
-    let mut counts = (0usize, 0usize);
-    counts.0 = constants.iter().map(Vec::len).sum();
+    let mut counts: (usize, usize) = (constants.iter().map(Vec::len).sum(), 0);
     for (i, axis) in machine.axes.iter().enumerate() {
         let list = &mut motions[i];
         if list.is_empty() {
