@@ -305,7 +305,8 @@ pub fn convert(
     let mut toml = format!(
         "# Converted by `nccomp errors convert` from {} file {path}.\n\
          # Names mapped onto ISO 230 names as nccomp writes them (X0B is EX0B); values and\n\
-         # signs as the file gives them, in its units (docs/import.md).\n\
+         # signs as the file gives them, in its units (docs/import.md). `# line N`: where\n\
+         # the file names the term.\n\
          length_unit = \"mm\"\nangle_unit = \"rad\"\n",
         format.name()
     );
