@@ -10,10 +10,12 @@ pub mod budget;
 pub mod compensate;
 pub mod diag;
 pub mod identify;
+pub mod import;
 pub mod kinematics;
 pub mod model;
 pub mod nc;
 pub mod probe;
+pub mod report;
 pub mod workpiece;
 
 pub use diag::{Diagnostic, Error, Result};

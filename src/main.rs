@@ -77,6 +77,88 @@ or the speeds needed fall outside --min-feed/--max-feed. Outputs are written onl
 success, and atomically."
     )]
     Probe(ProbeArgs),
+    /// Write an HTML report on a program: predicted errors before and after compensation,
+    /// the correction per axis, and maps of the machine's volumetric error.
+    #[command(
+        after_help = "Example:\n  nccomp report --machine fixtures/ac_trunnion.machine.toml \\\n      --errors fixtures/ac_trunnion.errors.toml fixtures/feature_workpiece.nc \\\n      --at A=0,C=0 --at A=-90,C=90 -o report.html\n\n\
+One self-contained HTML file (inline SVG, no external resources). See docs/report.md.\n\n\
+Exit status: 0 when the report was written, 2 when an input is unusable or a block cannot be \
+compensated. The file is written only on success, and atomically."
+    )]
+    Report(ReportArgs),
+    /// Error files: convert calibration files from the field (ISG CSV, Etalon) into nccomp's.
+    #[command(subcommand)]
+    Errors(ErrorsCommand),
+}
+
+#[derive(clap::Args)]
+struct ReportArgs {
+    /// Machine file (TOML).
+    #[arg(long, short = 'm', value_name = "MACHINE.toml")]
+    machine: PathBuf,
+    /// Error file (TOML).
+    #[arg(long, short = 'e', value_name = "ERRORS.toml")]
+    errors: PathBuf,
+    /// The NC program.
+    #[arg(value_name = "PROGRAM")]
+    input: PathBuf,
+    /// Where to write the HTML report.
+    #[arg(long, short = 'o', value_name = "REPORT.html")]
+    output: PathBuf,
+    /// Axis values of a volumetric map, e.g. A=30,C=90 (axes left out are 0; give the
+    /// third linear axis to draw one level instead of three). Repeat for more maps.
+    #[arg(long, value_name = "POSE")]
+    at: Vec<String>,
+    /// Grid points per linear axis of a map.
+    #[arg(long, value_name = "N", default_value_t = 15)]
+    grid: usize,
+    /// Tool chain to use on machines with several.
+    #[arg(long, value_name = "NAME")]
+    tool_chain: Option<String>,
+    /// Axes that keep their programmed values, comma-separated.
+    #[arg(long, value_name = "AXES", value_delimiter = ',')]
+    hold: Vec<String>,
+}
+
+#[derive(Subcommand)]
+enum ErrorsCommand {
+    /// Convert a Beckhoff/ISG `ISG_CSV` table or an Etalon exchange file into an error file.
+    #[command(
+        after_help = "Example:\n  nccomp errors convert volcomp.csv -o errors.toml\n  \
+nccomp errors convert laser.txt --from etalon --machine m.toml -o errors.toml\n\n\
+Names are mapped onto ISO 230 names as nccomp writes them (X0B is EX0B), values kept in the \
+file's units (mm, rad), signs unchanged unless --reverse. See docs/import.md.\n\n\
+Exit status: 0 when the file was converted, 2 when the input is unusable (the message names \
+file:line:column)."
+    )]
+    Convert(ConvertArgs),
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum FieldFormat {
+    /// Beckhoff/ISG volumetric compensation table.
+    IsgCsv,
+    /// Etalon exchange format ("Vendor" variant).
+    Etalon,
+}
+
+#[derive(clap::Args)]
+struct ConvertArgs {
+    /// The calibration file.
+    #[arg(value_name = "IN")]
+    input: PathBuf,
+    /// Its format (detected from the content by default).
+    #[arg(long, value_enum)]
+    from: Option<FieldFormat>,
+    /// Check the names against this machine's axes (by default: X, Y, Z, A, B, C).
+    #[arg(long, short = 'm', value_name = "MACHINE.toml")]
+    machine: Option<PathBuf>,
+    /// Axes whose error motions change sign, comma-separated (see docs/import.md).
+    #[arg(long, value_name = "AXES", value_delimiter = ',')]
+    reverse: Vec<String>,
+    /// Where to write the error file; standard output when left out or `-`.
+    #[arg(long, short = 'o', value_name = "ERRORS.toml")]
+    output: Option<PathBuf>,
 }
 
 /// Output formats of the budget commands.
@@ -301,6 +383,8 @@ fn main() -> ExitCode {
         Command::Sensitivity(args) => sensitivity(&args),
         Command::Tolerance(args) => tolerance(&args),
         Command::Probe(args) => probe(&args),
+        Command::Report(args) => report(&args),
+        Command::Errors(ErrorsCommand::Convert(args)) => convert(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -387,6 +471,58 @@ fn compensate(args: &CompensateArgs) -> nccomp::Result<()> {
     if !args.quiet {
         eprintln!("{name}: {summary}");
     }
+    Ok(())
+}
+
+fn report(args: &ReportArgs) -> nccomp::Result<()> {
+    use nccomp::report;
+    let machine = machine_file::load(&args.machine)?;
+    let errors = error_file::load(&args.errors, &machine)?;
+    let (src, name) = read_file(&args.input)?;
+    let options = report::Options {
+        compensate: Options {
+            tool_chain: args.tool_chain.clone(),
+            hold: args.hold.clone(),
+            ..Options::default()
+        },
+        at: args.at.clone(),
+        grid: args.grid,
+    };
+    let names = report::Names {
+        program: name,
+        machine: args.machine.display().to_string(),
+        errors: args.errors.display().to_string(),
+    };
+    let r = report::build(&machine, &errors, &src, names, &options)?;
+    let html = r.html().map_err(nccomp::Error::Usage)?;
+    write_atomically(&args.output, html.as_bytes())
+}
+
+fn convert(args: &ConvertArgs) -> nccomp::Result<()> {
+    use nccomp::import::{self, Format};
+    let (bytes, name) = read_file(&args.input)?;
+    let machine = args
+        .machine
+        .as_deref()
+        .map(machine_file::load)
+        .transpose()?;
+    let options = import::Options {
+        format: args.from.map(|f| match f {
+            FieldFormat::IsgCsv => Format::IsgCsv,
+            FieldFormat::Etalon => Format::Etalon,
+        }),
+        reverse: args.reverse.clone(),
+    };
+    let text = String::from_utf8_lossy(&bytes);
+    let converted = import::convert(&text, &name, machine.as_ref(), &options)?;
+    match &args.output {
+        Some(path) if !is_std(&args.output) => write_atomically(path, converted.toml.as_bytes())?,
+        _ => print(&converted.toml)?,
+    }
+    for note in &converted.notes {
+        eprintln!("note: {note}");
+    }
+    eprintln!("{}", converted.summary);
     Ok(())
 }
 

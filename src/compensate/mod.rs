@@ -14,7 +14,7 @@ mod tcp;
 mod words;
 mod writing;
 
-pub use summary::{Extreme, Summary};
+pub use summary::{Extreme, Sample, Summary};
 
 use crate::diag::{Diagnostic, Error};
 use crate::kinematics::{Kinematics, MAX_AXES, Model, SolveOptions};
@@ -212,8 +212,25 @@ impl<'m> Compensator<'m> {
     /// Compensate the program `src` (named `path` in messages), appending the result to
     /// `out`.
     pub fn run(&self, src: &[u8], path: &str, out: &mut Vec<u8>) -> crate::Result<Summary> {
+        self.run_with(src, path, out, false)
+    }
+
+    /// [`Self::run`], keeping what the model predicts at every compensated line in
+    /// [`Summary::trace`] (for reports).
+    pub fn run_traced(&self, src: &[u8], path: &str, out: &mut Vec<u8>) -> crate::Result<Summary> {
+        self.run_with(src, path, out, true)
+    }
+
+    fn run_with(
+        &self,
+        src: &[u8],
+        path: &str,
+        out: &mut Vec<u8>,
+        trace: bool,
+    ) -> crate::Result<Summary> {
         let mut summary = Summary {
             zero_model: self.zero_model,
+            trace: trace.then(Vec::new),
             ..Summary::default()
         };
         if self.zero_model {
@@ -269,6 +286,12 @@ impl<'m> Compensator<'m> {
                 if errors.len() >= self.options.max_errors {
                     break;
                 }
+            }
+            if let Some(s) = summary.trace.as_mut().and_then(|t| t.last_mut())
+                && s.line == line.number
+            {
+                s.nominal = state.nominal[..n].to_vec();
+                s.written = state.emitted[..n].to_vec();
             }
             if let Some(number) = tokens.iter().find_map(|t| match &t.kind {
                 TokenKind::Word(w) if w.letter == b'N' => {

@@ -17,6 +17,24 @@ impl Extreme {
     }
 }
 
+/// What the model predicts at one program line (kept only when the run is traced, for
+/// plots along the program).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Sample {
+    pub line: usize,
+    /// The largest tip error (mm) and direction error (rad) of the line's blocks (an arc or
+    /// a split move writes several), without compensation ...
+    pub before_position: f64,
+    pub before_direction: f64,
+    /// ... and at the written axis values (singular poses included).
+    pub after_position: f64,
+    pub after_direction: f64,
+    /// Programmed and written axis values at the end of the line, per variable of the
+    /// active configuration (mm, degrees).
+    pub nominal: Vec<f64>,
+    pub written: Vec<f64>,
+}
+
 /// Counts and predicted errors of one run.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Summary {
@@ -70,6 +88,9 @@ pub struct Summary {
     /// Axes moved by an incremental (G91) word before the program set them, from their
     /// home value 0, with the first line where that happened.
     pub incremental_from_home: Vec<(String, usize)>,
+    /// One sample per compensated line, when the run was traced
+    /// ([`super::Compensator::run_traced`]).
+    pub trace: Option<Vec<Sample>>,
 }
 
 impl Summary {
@@ -92,6 +113,24 @@ impl Summary {
             self.singular_direction.update(after_d, line);
         } else {
             self.after_direction.update(after_d, line);
+        }
+        if let Some(trace) = &mut self.trace {
+            match trace.last_mut() {
+                Some(s) if s.line == line => {
+                    s.before_position = s.before_position.max(before_p);
+                    s.before_direction = s.before_direction.max(before_d);
+                    s.after_position = s.after_position.max(after_p);
+                    s.after_direction = s.after_direction.max(after_d);
+                }
+                _ => trace.push(Sample {
+                    line,
+                    before_position: before_p,
+                    before_direction: before_d,
+                    after_position: after_p,
+                    after_direction: after_d,
+                    ..Sample::default()
+                }),
+            }
         }
         if beyond {
             if self.beyond_table_blocks == 0 {

@@ -140,6 +140,25 @@ pub fn parse(name: &str) -> Option<TermName<'_>> {
     })
 }
 
+/// Parse an error name as calibration files from the field write it: the contract's own
+/// names (`EYX`, `EC0Y`), or the position-independent terms in the ISO 230 notation
+/// without the leading `E` that Beckhoff/ISG volumetric compensation tables and Etalon
+/// exchange files use (`C0Y` is EC0Y, `X0B` is EX0B). The two forms cannot be confused:
+/// `E` is not a component letter.
+pub fn parse_field(name: &str) -> Option<TermName<'_>> {
+    if let Some(term) = parse(name) {
+        return Some(term);
+    }
+    let mut chars = name.chars();
+    let component = Component::from_letter(chars.next()?)?;
+    let axis = chars.as_str().strip_prefix('0')?;
+    is_axis_name(axis).then_some(TermName {
+        component,
+        constant: true,
+        axis,
+    })
+}
+
 /// The coordinate axis (0 X, 1 Y, 2 Z) with the largest |component| of the axis's
 /// nominal direction; the first of them on a tie.
 pub fn own_direction(axis: &Axis) -> usize {
@@ -414,6 +433,21 @@ mod tests {
             "EX-C", "EX0 C",
         ] {
             assert_eq!(parse(bad), None, "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn parses_field_names() {
+        let t = parse_field("X0B").unwrap();
+        assert_eq!((t.component, t.constant, t.axis), (Component::X, true, "B"));
+        assert_eq!(t.to_string(), "EX0B");
+        assert_eq!(parse_field("C0Y").unwrap().to_string(), "EC0Y");
+        assert_eq!(parse_field("EYX").unwrap().to_string(), "EYX");
+        assert_eq!(parse_field("EC0Y").unwrap().to_string(), "EC0Y");
+        for bad in [
+            "X", "XB", "X0", "Q0B", "x0B", "X0b", "P0X", "PXA", "VXX", "IDX", "LNX",
+        ] {
+            assert_eq!(parse_field(bad), None, "{bad:?}");
         }
     }
 
