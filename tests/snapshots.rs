@@ -66,3 +66,12 @@ fn tcp_program_on_the_ac_trunnion() {
         Options::default()
     ));
 }
+
+#[test]
+fn tcp_vector_program_on_the_ac_trunnion() {
+    insta::assert_snapshot!(compensate(
+        "ac_trunnion",
+        "ac_trunnion_tcp_vector",
+        Options::default()
+    ));
+}

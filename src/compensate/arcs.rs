@@ -74,7 +74,7 @@ impl Compensator<'_> {
             return refuse("an optional block (/) with an arc is not supported");
         }
         if state.tcp {
-            return refuse("arcs under G43.4 are not supported");
+            return refuse("arcs under tool-centre-point control (G43.4/G43.5) are not supported");
         }
         if let Some(t) = tokens
             .iter()

@@ -21,6 +21,8 @@ pub enum GCode {
     Incremental,
     /// G43.4: tool-centre-point control with rotary words; takes an H word like G43.
     ToolCentrePoint,
+    /// G43.5: tool-centre-point control with the tool direction as a vector (I, J, K).
+    ToolCentrePointVector,
     /// G53: a move in machine coordinates, this block only. Left untouched; the axes it
     /// names end where nccomp does not know their program coordinates.
     MachineCoordinates,
@@ -75,7 +77,7 @@ pub fn classify(code10: i64) -> GCode {
         410 | 411 | 420 | 421 => Unsupported("cutter radius compensation (G41/G42)"),
         431 | 432 => Unsupported("a dynamic tool length offset (G43.1/G43.2)"),
         434 => ToolCentrePoint,
-        435 => Unsupported("tool-centre-point control with tool vectors (G43.5)"),
+        435 => ToolCentrePointVector,
         520 => Unsupported("a local coordinate offset (G52)"),
         541 => Unsupported("an extended work offset (G54.1)"),
         680..=689 => Unsupported("coordinate rotation (G68)"),

@@ -11,6 +11,7 @@ mod gcodes;
 mod split;
 mod summary;
 mod tcp;
+mod tcp_vector;
 mod words;
 mod writing;
 
@@ -94,8 +95,13 @@ struct State {
     arc_absolute: bool,
     /// The last arc code was G2 (clockwise).
     clockwise: bool,
-    /// G43.4 is active: X, Y, Z words are the tool tip in the workpiece frame.
+    /// G43.4 or G43.5 is active: X, Y, Z words are the tool tip in the workpiece frame.
     tcp: bool,
+    /// G43.5: the tool direction is programmed as a vector (I, J, K), not by rotary words.
+    tcp_vector: bool,
+    /// Under G43.5: the tool vector as programmed, and as written (not normalised).
+    vector_nominal: [f64; 3],
+    vector_written: [f64; 3],
     /// In TCP mode: the programmed tip, and the tip as written (mm).
     tip_nominal: [f64; 3],
     tip_written: [f64; 3],
@@ -251,6 +257,9 @@ impl<'m> Compensator<'m> {
             arc_absolute: false,
             clockwise: true,
             tcp: false,
+            tcp_vector: false,
+            vector_nominal: [0.0, 0.0, 1.0],
+            vector_written: [0.0, 0.0, 1.0],
             tip_nominal: [0.0; 3],
             tip_written: [0.0; 3],
             nominal: [0.0; MAX_AXES],
@@ -349,6 +358,9 @@ impl<'m> Compensator<'m> {
             return self.arc_block(line, tokens, &motion, clockwise, state, edits, summary, at);
         }
         let n = self.kin.len();
+        if state.tcp_vector && kind == MoveKind::Program {
+            return self.tcp_vector_block(line, tokens, &motion, state, edits, summary, at);
+        }
         if state.tcp && kind == MoveKind::Program {
             return self.tcp_block(
                 line,

@@ -17,7 +17,7 @@ use crate::nc::{self, Token, TokenKind, Value};
 
 impl Compensator<'_> {
     /// The variables driven by the X, Y and Z words, which TCP programs use for the tip.
-    fn tip_vars(&self) -> Option<[usize; 3]> {
+    pub(super) fn tip_vars(&self) -> Option<[usize; 3]> {
         let mut vars = [0; 3];
         for (c, letter) in [b'X', b'Y', b'Z'].iter().enumerate() {
             let v = self.var_of_letter[(letter - b'A') as usize]?;
@@ -29,22 +29,28 @@ impl Compensator<'_> {
         Some(vars)
     }
 
-    /// G43.4 switches on: from now on X, Y, Z words are the tip.
+    /// G43.4 or G43.5 switches on: from now on X, Y, Z words are the tip (and under G43.5,
+    /// I, J, K the tool vector).
     pub(super) fn enter_tcp(
         &self,
         state: &mut State,
         at: &dyn Fn(usize, String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
+        let code = if state.tcp_vector { "G43.5" } else { "G43.4" };
         if self.tip_vars().is_none() {
             return Err(at(
                 0,
-                "G43.4 needs linear axes driven by X, Y and Z words for the tool tip; this machine has none".into(),
+                format!(
+                    "{code} needs linear axes driven by X, Y and Z words for the tool tip; this machine has none"
+                ),
             ));
         }
         if state.incremental {
             return Err(at(
                 0,
-                "G43.4 in incremental mode (G91) cannot be compensated (program the TCP part in G90)".into(),
+                format!(
+                    "{code} in incremental mode (G91) cannot be compensated (program the TCP part in G90)"
+                ),
             ));
         }
         let n = self.kin.len();
@@ -56,6 +62,8 @@ impl Compensator<'_> {
             .pose(Model::Nominal, &state.emitted[..n], state.length);
         state.tip_nominal = nominal.p.into();
         state.tip_written = written.p.into();
+        state.vector_nominal = nominal.o.into();
+        state.vector_written = written.o.into();
         state.tcp = true;
         Ok(())
     }

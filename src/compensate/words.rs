@@ -11,7 +11,8 @@ use crate::nc::{self, Token, TokenKind, Value};
 pub(super) struct BlockMotion {
     /// Token index of each variable's axis word, if the block has one.
     pub axis_words: [Option<usize>; MAX_AXES],
-    /// For arcs: token indices of the I, J, K and R words, and of the G2/G3 word.
+    /// For arcs: token indices of the I, J, K and R words, and of the G2/G3 word. Under
+    /// G43.5 the I, J, K words are the tool vector.
     pub arc_words: [Option<usize>; 4],
     pub arc_code: Option<usize>,
     /// The block starts with a block delete `/`: it runs only with the switch off.
@@ -58,6 +59,7 @@ impl Compensator<'_> {
         let mut g43 = false;
         let mut g49 = false;
         let mut tcp_on = false;
+        let mut tcp_vector = false;
         let mut o_word = None;
         let mut other_text = None;
         let mut arc_word: Option<(char, usize)> = None;
@@ -138,6 +140,12 @@ impl Compensator<'_> {
                     GCode::ToolCentrePoint => {
                         g43 = true;
                         tcp_on = true;
+                        tcp_vector = false;
+                    }
+                    GCode::ToolCentrePointVector => {
+                        g43 = true;
+                        tcp_on = true;
+                        tcp_vector = true;
                     }
                     GCode::ToolLengthOff => g49 = true,
                     GCode::WorkOffset => {
@@ -288,8 +296,10 @@ impl Compensator<'_> {
         if g49 {
             state.length = self.machine.tool.length;
             state.tcp = false;
+            state.tcp_vector = false;
         }
-        if tcp_on && !state.tcp {
+        if tcp_on && (!state.tcp || state.tcp_vector != tcp_vector) {
+            state.tcp_vector = tcp_vector;
             self.enter_tcp(state, at)?;
         }
         if let Some((g, _)) = motion_in_block {
@@ -312,6 +322,26 @@ impl Compensator<'_> {
                 kind: MoveKind::Arc {
                     clockwise: state.clockwise,
                 },
+            }));
+        }
+        if state.tcp_vector && special.is_none() {
+            // G43.5: I, J, K are the tool vector; R means nothing here.
+            if let Some(i) = arc_words[3] {
+                return Err(at(
+                    tokens[i].span.start,
+                    "R words are not expected under G43.5 (expected X, Y, Z for the tip and I, J, K for the tool vector)".into(),
+                ));
+            }
+            let vector = arc_words[..3].iter().any(Option::is_some);
+            if dwell || !(vector || axis_words[..n].iter().any(Option::is_some)) {
+                return Ok(None);
+            }
+            return Ok(Some(BlockMotion {
+                axis_words,
+                arc_words,
+                arc_code: None,
+                optional,
+                kind: MoveKind::Program,
             }));
         }
         if let Some((letter, col)) = arc_word {
