@@ -137,3 +137,81 @@ fn no_split_from_a_start_the_program_left_unknown() {
     let (out, _) = run(program, Some(PathTolerance::default()));
     assert_eq!(out.lines().count(), 3, "{out}");
 }
+
+/// Absolute positions after every line that moves, in units of 1e-4 (mm or degree), from a
+/// program in G90 or G91 (the axis words read exactly from their text).
+fn positions(program: &str) -> Vec<[i64; 5]> {
+    let mut q = [0i64; 5];
+    let mut incremental = false;
+    let mut out = Vec::new();
+    for line in program.lines() {
+        let mut moved = false;
+        for word in line.split_whitespace() {
+            match word {
+                "G90" => incremental = false,
+                "G91" => incremental = true,
+                _ => {}
+            }
+            if let Some(k) = "XYZAC".find(&word[..1]) {
+                let text = &word[1..];
+                let (int, frac) = text.split_once('.').unwrap_or((text, ""));
+                assert!(frac.len() <= 4, "{line}: more than 4 decimals");
+                let negative = int.starts_with('-');
+                let units = int.trim_start_matches('-').parse::<i64>().unwrap_or(0) * 10_000
+                    + format!("{frac:0<4}").parse::<i64>().unwrap();
+                let units = if negative { -units } else { units };
+                q[k] = if incremental { q[k] + units } else { units };
+                moved = true;
+            }
+        }
+        if moved {
+            out.push(q);
+        }
+    }
+    out
+}
+
+#[test]
+fn incremental_moves_are_split_like_absolute_ones_without_drift() {
+    // The same random five-axis program in G90 and in G91 (exact increments): compensated
+    // with the path tolerance, both give the same blocks at the same absolute positions,
+    // inserted pieces included.
+    let mut rng = Lcg(77);
+    let mut absolute = String::from("G90 G0 X0 Y0 Z50 A-30 C0\nG1 F1000\n");
+    let mut incremental = String::from("G90 G0 X0 Y0 Z50 A-30 C0\nG91 G1 F1000\n");
+    let mut last = [0i64, 0, 500_000, -300_000, 0];
+    for _ in 0..120 {
+        let next = [
+            (rng.sym(150.0) * 1e4).round() as i64,
+            (rng.sym(150.0) * 1e4).round() as i64,
+            ((40.0 + rng.sym(30.0)) * 1e4).round() as i64,
+            ((-50.0 + rng.sym(40.0)) * 1e4).round() as i64,
+            (rng.sym(180.0) * 1e4).round() as i64,
+        ];
+        let word = |k: usize, u: i64| {
+            format!(
+                "{}{}{}.{:04}",
+                &"XYZAC"[k..=k],
+                if u < 0 { "-" } else { "" },
+                u.abs() / 10_000,
+                u.abs() % 10_000
+            )
+        };
+        let abs: Vec<String> = (0..5).map(|k| word(k, next[k])).collect();
+        let inc: Vec<String> = (0..5).map(|k| word(k, next[k] - last[k])).collect();
+        absolute.push_str(&(abs.join(" ") + "\n"));
+        incremental.push_str(&(inc.join(" ") + "\n"));
+        last = next;
+    }
+    let tol = Some(PathTolerance::default());
+    let (out_abs, s_abs) = run(&absolute, tol);
+    let (out_inc, s_inc) = run(&incremental, tol);
+    assert!(s_abs.blocks_added > 40, "{}", s_abs.blocks_added);
+    assert_eq!(s_abs.blocks_added, s_inc.blocks_added);
+    assert_eq!(out_abs.lines().count(), out_inc.lines().count());
+    let (pa, pi) = (positions(&out_abs), positions(&out_inc));
+    assert_eq!(pa.len(), pi.len());
+    for (k, (a, i)) in pa.iter().zip(&pi).enumerate() {
+        assert_eq!(a, i, "moving line {k}: G90 {a:?}, G91 {i:?}");
+    }
+}

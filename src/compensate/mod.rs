@@ -580,10 +580,9 @@ impl<'m> Compensator<'m> {
                 ));
             }
         }
-        // Split the move where its path strays (G1 from a known start, in G90).
+        // Split the move where its path strays (G1 from a known start).
         if let Some(tolerance) = &self.options.path
             && !state.rapid
-            && !state.incremental
             && !optional
             && (0..n).all(|v| start_known & (1 << v) != 0)
         {

@@ -8,7 +8,7 @@
 //! gap of the numbering where there is one, the block's G words, letter case, spacing and
 //! decimals; in inverse-time feed (G93) each piece gets the F that keeps the move's time.
 
-use super::exact::Position;
+use super::exact::{self, Position};
 use super::{Compensator, Edit, INCH, State, Summary, axis_order};
 use crate::kinematics::MAX_AXES;
 use crate::kinematics::path::PathTolerance;
@@ -59,7 +59,10 @@ impl Compensator<'_> {
                 }
             }
         }
-        if whole || (state.inverse_time && f_word.is_none()) {
+        // In G91 an axis last set by an optional block starts from a place that depends on
+        // the block delete switch: no increment from it is right (the block itself says so).
+        let uncertain = state.incremental && (state.uncertain | state.unsettled) != 0;
+        if whole || uncertain || (state.inverse_time && f_word.is_none()) {
             summary.note_unsplit(line.number);
             return;
         }
@@ -92,6 +95,24 @@ impl Compensator<'_> {
                 let to_units = |x: f64| if inch { x / INCH } else { x };
                 let value = to_units(piece.q[v]);
                 let d = state.decimals[v].max(self.res_decimals(v, state.inch));
+                if state.incremental {
+                    // The exact difference between two written absolute positions, as the
+                    // block's own increments are written: no drift.
+                    let d = d.min(exact::MAX_DECIMALS);
+                    let Some((k, e)) = exact::increment(state.written[v].units(), value, d, inch)
+                    else {
+                        continue;
+                    };
+                    if k == 0 {
+                        continue;
+                    }
+                    let mut number = String::new();
+                    exact::write_digits(k, e, &mut number);
+                    state.written[v] = state.written[v].add(exact::units(k, e, inch).unwrap_or(0));
+                    state.emitted[v] = exact::to_f64(state.written[v].units());
+                    words.push(style.letter(self.letter(v)) + &number);
+                    continue;
+                }
                 if same_text(to_units(state.emitted[v]), value, d) {
                     continue;
                 }
