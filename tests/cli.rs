@@ -262,7 +262,7 @@ fn blocks_that_cannot_be_compensated_fail_without_touching_the_output() {
         ("G0 X0 Y0 Z50 A0 C0\nG91 G2 X10 Y0 I5 J0\n", ":2:5:", "arc"),
         ("G92 X0\n", ":1:1:", "G92"),
         ("G1 X[#1 + 2]\n", ":1:4:", "expression"),
-        ("G43.5 H1\n", ":1:1:", "tool-centre-point"),
+        ("G43.1 Z2\n", ":1:1:", "a dynamic tool length offset"),
     ] {
         let input = write(&dir, "in.nc", program);
         let (code, err) = fails(&[

@@ -206,7 +206,7 @@ fn unsupported_blocks_are_errors_with_line_and_column() {
         ("G92 X0\n", "p.nc:1:1: G92 cannot be compensated"),
         ("G1 X[#1+2]\n", "p.nc:1:4: X is given by an expression"),
         ("G1 X#5\n", "p.nc:1:4: X is given by a parameter"),
-        ("G43.5 H1\nG1 X1\n", "p.nc:1:1: G43.5 cannot be compensated"),
+        ("G43.1 Z2\n", "p.nc:1:1: G43.1 cannot be compensated"),
         (
             "G1 X1\nG81 X1 Y1 Z-2 R1\n",
             "p.nc:2:1: G81 cannot be compensated",

@@ -9,6 +9,7 @@
 //! first one carrying the block's G, H, D, S and F words so every piece runs as the block
 //! would. A block with M or T words is refused: they would run after the pieces.
 
+use super::arc_keep::ArcPath;
 use super::exact::Position;
 use super::split::Style;
 use super::words::BlockMotion;
@@ -76,15 +77,9 @@ impl Compensator<'_> {
         if state.tcp {
             return refuse("arcs under tool-centre-point control (G43.4/G43.5) are not supported");
         }
-        if let Some(t) = tokens
+        let m_or_t = tokens
             .iter()
-            .find(|t| matches!(&t.kind, TokenKind::Word(w) if matches!(w.letter, b'M' | b'T')))
-        {
-            return Err(at(
-                t.span.start,
-                "this arc cannot be compensated with an M or T word in its block: the word would run only after the arc's first pieces (put it in a block of its own)".into(),
-            ));
-        }
+            .find(|t| matches!(&t.kind, TokenKind::Word(w) if matches!(w.letter, b'M' | b'T')));
         if state.inverse_time
             && !tokens
                 .iter()
@@ -190,6 +185,44 @@ impl Compensator<'_> {
             let s = (th1 - th0).rem_euclid(TAU);
             if s == 0.0 { TAU } else { s }
         };
+        let path = ArcPath {
+            va,
+            vb,
+            centre,
+            r0,
+            r1,
+            th0,
+            sweep,
+            start,
+            end,
+        };
+        // Kept as an arc where what the controller makes of the compensated words stays
+        // within the path tolerance (the default one under --tolerance off).
+        let tolerance = self.options.path.unwrap_or_default();
+        if let Some(kept) = self.keep_arc(&path, tokens, motion, centre_letters, state, &tolerance)
+        {
+            self.check_piece(&end, &kept.end, col, at)?;
+            state.nominal = end;
+            self.write_positions(
+                line, tokens, axis_words, &kept.end, false, state, edits, summary, at,
+            )?;
+            for (word, _) in &kept.centre_words {
+                match word {
+                    Ok(_) => summary.words_changed += 1,
+                    Err(_) => summary.words_added += 1,
+                }
+            }
+            self.centre_edits(line, tokens, motion, &kept.centre_words, edits);
+            self.record_block(line.number, &kept.end_solution, state, summary);
+            summary.note_arc_kept();
+            return Ok(());
+        }
+        if let Some(t) = m_or_t {
+            return Err(at(
+                t.span.start,
+                "this arc must be replaced by straight pieces (kept as an arc it strays from the path) and cannot be with an M or T word in its block: the word would run only after the first pieces (put it in a block of its own)".into(),
+            ));
+        }
         let radius = r0.max(r1);
         let step = 2.0 * (1.0 - (CHORD / radius).min(1.0)).acos();
         let pieces = ((sweep.abs() / step).ceil() as usize).max(1);
@@ -211,15 +244,7 @@ impl Compensator<'_> {
             .find(|t| matches!(&t.kind, TokenKind::Word(w) if w.letter == b'F'));
         let mut text = String::new();
         for k in 1..pieces {
-            let s = k as f64 / pieces as f64;
-            let th = th0 + sweep * s;
-            let r = r0 + (r1 - r0) * s;
-            let mut q = [0.0; MAX_AXES];
-            for v in 0..n {
-                q[v] = start[v] + (end[v] - start[v]) * s;
-            }
-            q[va] = centre.0 + r * th.cos();
-            q[vb] = centre.1 + r * th.sin();
+            let q = path.point(k as f64 / pieces as f64, n);
             let sol = self
                 .kin
                 .compensate(&q[..n], state.length, self.hold, &self.options.solve);

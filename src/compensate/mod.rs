@@ -5,6 +5,7 @@
 //! compensated value rounds differently (design/model.md, "Numbers in programs"); a block
 //! that omits an axis whose value must change gets that word added.
 
+mod arc_keep;
 mod arcs;
 mod exact;
 mod gcodes;

@@ -74,6 +74,8 @@ pub struct Summary {
     /// the first.
     pub unsplit_moves: usize,
     pub first_unsplit: usize,
+    /// Arcs kept as arcs (compensated end and centre within the path tolerance).
+    pub arcs_kept: usize,
     /// Arcs replaced by straight pieces, and the blocks that took.
     pub arcs: usize,
     pub arc_blocks_added: usize,
@@ -172,6 +174,10 @@ impl Summary {
         self.blocks_added += added;
     }
 
+    pub(crate) fn note_arc_kept(&mut self) {
+        self.arcs_kept += 1;
+    }
+
     pub(crate) fn note_arc(&mut self, _line: usize, added: usize) {
         self.arcs += 1;
         self.arc_blocks_added += added;
@@ -261,6 +267,13 @@ impl fmt::Display for Summary {
                 count(self.moves_split, "move"),
                 self.first_split,
                 count(self.blocks_added, "block")
+            )?;
+        }
+        if self.arcs_kept > 0 {
+            write!(
+                f,
+                "\n{} kept as arcs (compensated end and centre stay within the path tolerance)",
+                count(self.arcs_kept, "arc"),
             )?;
         }
         if self.arcs > 0 {

@@ -1,0 +1,327 @@
+//! Keeping an arc an arc.
+//!
+//! The controller interpolates G2/G3 in axis space; on a machine with errors the arc that
+//! traces the intended one on the part is not exactly a circle in axis space, but for the
+//! errors of a real machine it is very nearly one. nccomp compensates the arc's end and
+//! the circle through the compensated start, middle and end, writes those, and evaluates
+//! what the controller will do with the written words (its circle through the written
+//! start and end about the written centre, other axes linear in the angle, a radius that
+//! differs between the ends blended linearly, as LinuxCNC does) against the nominal arc
+//! along the way. Where that stays within the path tolerance the arc is kept; otherwise it
+//! is replaced by straight pieces (`arcs`).
+
+use super::split::Style;
+use super::words::BlockMotion;
+use super::{Compensator, Edit, INCH, State};
+use crate::kinematics::path::PathTolerance;
+use crate::kinematics::{MAX_AXES, Model, angle_between};
+use crate::nc::number::{same_text, scaled, write_fixed};
+use crate::nc::{self, Token, TokenKind, Value};
+use std::f64::consts::TAU;
+
+/// An arc in axis space: a (possibly spiral) circle in the plane of variables `va`, `vb`,
+/// all other variables linear from start to end.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct ArcPath {
+    pub va: usize,
+    pub vb: usize,
+    pub centre: (f64, f64),
+    pub r0: f64,
+    pub r1: f64,
+    pub th0: f64,
+    /// Signed sweep (rad): clockwise negative.
+    pub sweep: f64,
+    pub start: [f64; MAX_AXES],
+    pub end: [f64; MAX_AXES],
+}
+
+impl ArcPath {
+    /// The axis values at fraction `s` of the arc.
+    pub fn point(&self, s: f64, n: usize) -> [f64; MAX_AXES] {
+        let mut q = [0.0; MAX_AXES];
+        for (v, x) in q.iter_mut().enumerate().take(n) {
+            *x = self.start[v] + (self.end[v] - self.start[v]) * s;
+        }
+        let th = self.th0 + self.sweep * s;
+        let r = self.r0 + (self.r1 - self.r0) * s;
+        q[self.va] = self.centre.0 + r * th.cos();
+        q[self.vb] = self.centre.1 + r * th.sin();
+        q
+    }
+
+    /// The arc from `start` to `end` about `centre`, turning the way `like` turns and by
+    /// nearly as much (the same number of turns).
+    fn through(
+        like: &ArcPath,
+        centre: (f64, f64),
+        start: [f64; MAX_AXES],
+        end: [f64; MAX_AXES],
+    ) -> ArcPath {
+        let (va, vb) = (like.va, like.vb);
+        let th0 = (start[vb] - centre.1).atan2(start[va] - centre.0);
+        let th1 = (end[vb] - centre.1).atan2(end[va] - centre.0);
+        let mut sweep = th1 - th0;
+        sweep += TAU * ((like.sweep - sweep) / TAU).round();
+        ArcPath {
+            va,
+            vb,
+            centre,
+            r0: ((start[va] - centre.0).powi(2) + (start[vb] - centre.1).powi(2)).sqrt(),
+            r1: ((end[va] - centre.0).powi(2) + (end[vb] - centre.1).powi(2)).sqrt(),
+            th0,
+            sweep,
+            start,
+            end,
+        }
+    }
+}
+
+/// The centre of the circle through three points, if they are not (nearly) on a line.
+fn circle_centre(p: [(f64, f64); 3]) -> Option<(f64, f64)> {
+    let [(ax, ay), (bx, by), (cx, cy)] = p;
+    let d = 2.0 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by));
+    let scale = [(bx - ax), (by - ay), (cx - ax), (cy - ay)]
+        .iter()
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    if d.is_nan() || d.abs() <= 1e-9 * scale * scale {
+        return None;
+    }
+    let (a2, b2, c2) = (ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy);
+    Some((
+        (a2 * (by - cy) + b2 * (cy - ay) + c2 * (ay - by)) / d,
+        (a2 * (cx - bx) + b2 * (ax - cx) + c2 * (bx - ax)) / d,
+    ))
+}
+
+/// The words to write for a kept arc: the compensated end (axis values) and the centre
+/// words' new values in program units (`None`: unchanged or not needed).
+pub(super) struct KeptArc {
+    pub end: [f64; MAX_AXES],
+    pub end_solution: crate::kinematics::Solution,
+    /// (token index or the letter to add, number text) for I/J/K or R.
+    pub centre_words: Vec<(Result<usize, u8>, String)>,
+}
+
+impl Compensator<'_> {
+    /// The kept arc for `nominal` (an arc block whose words `motion` and `tokens` hold), if
+    /// what the controller makes of it stays within `tol` of the nominal arc.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn keep_arc(
+        &self,
+        nominal: &ArcPath,
+        tokens: &[Token],
+        motion: &BlockMotion,
+        centre_letters: [u8; 2],
+        state: &State,
+        tol: &PathTolerance,
+    ) -> Option<KeptArc> {
+        let n = self.kin.len();
+        let length = state.length;
+        let solve = |s: f64| {
+            self.kin.compensate(
+                &nominal.point(s, n)[..n],
+                length,
+                self.hold,
+                &self.options.solve,
+            )
+        };
+        let end_solution = solve(1.0);
+        // A rotary axis held at a singular pose or a solve that failed: the straight pieces
+        // deal with it.
+        if end_solution.position_residual > 1e-6 {
+            return None;
+        }
+        let start = state.emitted;
+        // The end as it will be written.
+        let mut end = end_solution.q;
+        for (v, x) in end.iter_mut().enumerate().take(n) {
+            let inch = state.inch && self.is_linear(v);
+            let d = state.decimals[v].max(self.res_decimals(v, state.inch));
+            let unit = if inch { INCH } else { 1.0 };
+            if let Some(k) = scaled(*x / unit, d) {
+                *x = k as f64 / 10f64.powi(d.into()) * unit;
+            }
+        }
+        let full = nominal.sweep.abs() > TAU - 1e-9;
+        let (s1, s2) = if full {
+            (1.0 / 3.0, 2.0 / 3.0)
+        } else {
+            (0.5, 1.0)
+        };
+        let (m1, m2) = (solve(s1).q, if full { solve(s2).q } else { end });
+        let plane = |q: &[f64; MAX_AXES]| (q[nominal.va], q[nominal.vb]);
+        let centre = circle_centre([plane(&start), plane(&m1), plane(&m2)])?;
+
+        // The centre words as they will be written, and the controller's arc from them.
+        let number = |i: usize| match &tokens[i].kind {
+            TokenKind::Word(w) => match w.value {
+                Value::Number { value, decimals } => Some((value, decimals)),
+                _ => None,
+            },
+            _ => None,
+        };
+        let unit = if state.inch { INCH } else { 1.0 };
+        let mut centre_words = Vec::new();
+        let written_centre = if let Some(ri) = motion.arc_words[3] {
+            let (old, decimals) = number(ri)?;
+            let probe = ArcPath::through(nominal, centre, start, end);
+            let radius = probe.r0 / unit;
+            let d = decimals.max(self.res_decimals(nominal.va, state.inch));
+            let new = radius.copysign(old);
+            let mut text = String::new();
+            write_fixed(new, d, &mut text);
+            let r: f64 = text.parse().ok()?;
+            if !same_text(old, new, d) {
+                centre_words.push((Ok(ri), text));
+            }
+            // The controller's centre from R and the written ends.
+            let r = r * unit;
+            let ((a0, b0), (a1, b1)) = (plane(&start), plane(&end));
+            let (dx, dy) = (a1 - a0, b1 - b0);
+            let dist = (dx * dx + dy * dy).sqrt();
+            if dist == 0.0 || dist > 2.0 * r.abs() {
+                return None;
+            }
+            let h = (r * r - dist * dist / 4.0).max(0.0).sqrt();
+            let left = (nominal.sweep < 0.0) == (r < 0.0);
+            let (mx, my) = ((a0 + a1) / 2.0, (b0 + b1) / 2.0);
+            let (ux, uy) = (-dy / dist, dx / dist);
+            if left {
+                (mx + ux * h, my + uy * h)
+            } else {
+                (mx - ux * h, my - uy * h)
+            }
+        } else {
+            let origin = if state.arc_absolute {
+                (0.0, 0.0)
+            } else {
+                plane(&start)
+            };
+            let mut written = [0.0; 2];
+            for c in 0..2 {
+                let letter = centre_letters[c];
+                let index = motion.arc_words[b"IJKR".iter().position(|&l| l == letter)?];
+                let offset = ([centre.0, centre.1][c] - [origin.0, origin.1][c]) / unit;
+                let var = if c == 0 { nominal.va } else { nominal.vb };
+                let res = self.res_decimals(var, state.inch);
+                let (old, d) = match index.and_then(number) {
+                    Some((old, decimals)) => (Some(old), decimals.max(res)),
+                    None => (None, res),
+                };
+                let mut text = String::new();
+                write_fixed(offset, d, &mut text);
+                written[c] = text.parse::<f64>().ok()? * unit;
+                match (index, old) {
+                    (Some(i), Some(old)) if !same_text(old, offset, d) => {
+                        centre_words.push((Ok(i), text))
+                    }
+                    (None, _) if !same_text(0.0, offset, d) => {
+                        centre_words.push((Err(letter), text))
+                    }
+                    _ => {}
+                }
+            }
+            (origin.0 + written[0], origin.1 + written[1])
+        };
+        let controller = ArcPath::through(nominal, written_centre, start, end);
+
+        if (controller.sweep - nominal.sweep).abs() > 0.1 {
+            return None;
+        }
+        // The controller's arc against the nominal one, at the quarter points and between:
+        // the distance of the real tip from the nominal arc (its closest point nearby: the
+        // two arcs' parametrisations differ by a micron along the way, which is timing,
+        // not path).
+        let nominal_at = |s: f64| {
+            self.kin
+                .pose_and_jacobian(Model::Nominal, &nominal.point(s, n)[..n], length)
+        };
+        let samples = (0..32)
+            .map(|k| (k as f64 + 0.5) / 32.0)
+            .chain([0.25, 0.5, 0.75]);
+        for s in samples {
+            let (actual, _) = self
+                .kin
+                .pose(Model::Actual, &controller.point(s, n)[..n], length);
+            // The closest point of the nominal arc near s: two Newton steps along its
+            // tangent (the offset is microns against an arc millimetres long).
+            let mut closest = s;
+            let mut distance = f64::INFINITY;
+            for _ in 0..2 {
+                let h = 1e-4;
+                let p = nominal_at(closest).0.p;
+                let (lo, hi) = ((closest - h).max(0.0), (closest + h).min(1.0));
+                let tangent =
+                    (nominal_at(hi).0.p - nominal_at(lo).0.p) / (hi - lo).max(f64::EPSILON);
+                let step = (actual.p - p).dot(&tangent) / tangent.norm_squared().max(1e-300);
+                closest = (closest + step).clamp(0.0, 1.0);
+                distance = (nominal_at(closest).0.p - actual.p).norm();
+            }
+            if distance > tol.position {
+                return None;
+            }
+            let (target, jac) = nominal_at(closest);
+            let singular = self
+                .kin
+                .singular_axes(&target, &jac, self.options.solve.singular_angle);
+            if singular != end_solution.singular {
+                // A rotary axis enters or leaves the singular cone along the arc: its
+                // correction jumps there, which the straight pieces deal with.
+                return None;
+            }
+            if singular == 0 && angle_between(&actual.o, &target.o) > tol.direction {
+                return None;
+            }
+        }
+        Some(KeptArc {
+            end: end_solution.q,
+            end_solution,
+            centre_words,
+        })
+    }
+
+    /// Edits for the centre words of a kept arc: changed numbers in place, missing words
+    /// after the block's last axis or centre word.
+    pub(super) fn centre_edits(
+        &self,
+        line: &nc::Line<'_>,
+        tokens: &[Token],
+        motion: &BlockMotion,
+        words: &[(Result<usize, u8>, String)],
+        edits: &mut Vec<Edit>,
+    ) {
+        let style = Style::of(line.content, tokens);
+        let last = motion
+            .axis_words
+            .iter()
+            .chain(&motion.arc_words)
+            .flatten()
+            .map(|&i| tokens[i].span.end)
+            .max()
+            .unwrap_or(0);
+        let mut added = String::new();
+        for (word, text) in words {
+            match word {
+                Ok(i) => {
+                    if let TokenKind::Word(w) = &tokens[*i].kind {
+                        edits.push(Edit {
+                            at: w.value_span.clone(),
+                            text: text.clone(),
+                        });
+                    }
+                }
+                Err(letter) => {
+                    added.push_str(style.separator);
+                    added.push_str(&style.letter(*letter));
+                    added.push_str(text);
+                }
+            }
+        }
+        if !added.is_empty() {
+            edits.push(Edit {
+                at: last..last,
+                text: added,
+            });
+        }
+    }
+}
