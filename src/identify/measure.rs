@@ -122,12 +122,24 @@ pub fn load(path: &std::path::Path, plan: &Plan) -> Result<Points> {
 /// Write points as a measurement CSV in plan order.
 pub fn to_csv(plan: &Plan, points: &Points) -> String {
     let mut out = String::from("feature,id,x,y,z\n");
+    // A field with a comma or a quote is quoted, its quotes doubled.
+    let field = |s: &str| {
+        if s.contains([',', '"', '\n']) {
+            format!("\"{}\"", s.replace('"', "\"\""))
+        } else {
+            s.to_string()
+        }
+    };
     for f in &plan.features {
         for p in &f.points {
             if let Some(v) = points.get(&p.id) {
                 out.push_str(&format!(
-                    "{},{},{:.5},{:.5},{:.5}\n",
-                    f.name, p.id, v.x, v.y, v.z
+                    "{},{},{:.6},{:.6},{:.6}\n",
+                    field(&f.name),
+                    field(&p.id),
+                    v.x,
+                    v.y,
+                    v.z
                 ));
             }
         }
