@@ -19,6 +19,9 @@ use super::plan::Plan;
 use crate::model::{ErrorModel, Machine, MotionTable, terms};
 use std::collections::BTreeMap;
 
+/// One axis's table positions and each of its terms' series on them.
+type AxisSeries = (Vec<f64>, Vec<(String, Vec<f64>)>);
+
 /// One unknown.
 #[derive(Debug, Clone, PartialEq)]
 enum Slot {
@@ -128,7 +131,7 @@ impl Params {
                     (true, None) => {
                         let mut stations = f.stations.clone();
                         if stations.len() < 3
-                            || stations.windows(2).any(|w| !(w[1] > w[0]))
+                            || stations.windows(2).any(|w| w[1] <= w[0])
                             || stations.iter().any(|s| !s.is_finite())
                         {
                             return Err(at(
@@ -304,12 +307,8 @@ impl Params {
 
     /// Each axis's table positions (the union over its terms) and each term's series on
     /// them, in mm and rad.
-    fn series(
-        &self,
-        machine: &Machine,
-        values: &[f64],
-    ) -> BTreeMap<usize, (Vec<f64>, Vec<(String, Vec<f64>)>)> {
-        let mut out: BTreeMap<usize, (Vec<f64>, Vec<(String, Vec<f64>)>)> = BTreeMap::new();
+    fn series(&self, machine: &Machine, values: &[f64]) -> BTreeMap<usize, AxisSeries> {
+        let mut out: BTreeMap<usize, AxisSeries> = BTreeMap::new();
         for t in self.tables.values() {
             let entry = out.entry(t.axis).or_default();
             entry.0.extend(&t.positions);

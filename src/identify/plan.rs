@@ -104,9 +104,8 @@ impl Plan {
                     ));
                 }
                 let n = v3(p.normal);
-                if !(n.iter().all(|c| c.is_finite()) && n.norm() > 1e-9)
-                    || !p.at.iter().all(|c| c.is_finite())
-                {
+                let finite = n.iter().chain(&p.at).all(|c| c.is_finite());
+                if !(finite && n.norm() > 1e-9) {
                     return Err(err(
                         &here,
                         format!(
@@ -201,20 +200,16 @@ impl Plan {
             let mut points = Vec::new();
             for level in levels {
                 for sign in [-1.0, 1.0] {
-                    let (normal, at): (Vector3<f64>, Box<dyn Fn(f64) -> Vector3<f64>>) = if along_x
-                    {
-                        (
-                            y * sign,
-                            Box::new(move |t| Vector3::new(t, sign * h, level)),
-                        )
-                    } else {
-                        (
-                            x * sign,
-                            Box::new(move |t| Vector3::new(sign * h, t, level)),
-                        )
+                    let at = |t: f64| {
+                        if along_x {
+                            Vector3::new(t, sign * h, level)
+                        } else {
+                            Vector3::new(sign * h, t, level)
+                        }
                     };
+                    let normal = if along_x { y * sign } else { x * sign };
                     let first = points.len();
-                    points.extend(line(prefix, first, &*at, normal, h - SPACING));
+                    points.extend(line(prefix, first, &at, normal, h - SPACING));
                 }
             }
             Feature {
