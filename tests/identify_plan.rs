@@ -174,3 +174,43 @@ fn csv_round_trip_and_errors() {
         .to_string();
     assert!(e.starts_with("m.csv:1:1:"), "{e}");
 }
+
+#[test]
+fn error_file_is_the_model_the_identification_used() {
+    // What `identify` writes, read back as `compensate` reads it, is the model the
+    // decoupling and the twin evaluate, everywhere on the tables and beyond.
+    use nccomp::kinematics::{Kinematics, Model};
+    use nccomp::model::error_file;
+    let machine = machine_file::load("fixtures/ac_trunnion.machine.toml".as_ref()).unwrap();
+    let (_, plan) = shipped();
+    let params = Params::new(&plan, &machine).unwrap();
+    let mut rng = Rng::new(3);
+    let values = simulate::random_values(&params, &mut rng, 0.005, 100e-6);
+    let text = params.error_toml(&machine, &values, "round trip");
+    let read = error_file::parse(&text, "e.toml", &machine).unwrap();
+    let direct = Kinematics::new(&machine, &params.model(&machine, &values), 0).unwrap();
+    let file = Kinematics::new(&machine, &read, 0).unwrap();
+    for k in 0..200 {
+        let u = |rng: &mut Rng, lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
+        let q = [
+            u(&mut rng, -120.0, 120.0),
+            u(&mut rng, -120.0, 120.0),
+            u(&mut rng, -50.0, 50.0),
+            u(&mut rng, -100.0, 20.0),
+            u(&mut rng, -180.0, 180.0),
+        ];
+        let (a, _) = direct.pose(Model::Actual, &q, 95.3);
+        let (b, _) = file.pose(Model::Actual, &q, 95.3);
+        // The file rounds to 1e-4 µm and µrad.
+        assert!(
+            (a.p - b.p).norm() < 1e-6,
+            "{k}: {q:?} {:e}",
+            (a.p - b.p).norm()
+        );
+        assert!((a.o - b.o).norm() < 1e-9, "{k}: {q:?}");
+    }
+    // And a term moves the machine: the model is not empty.
+    let (nominal, _) = direct.pose(Model::Nominal, &[10.0, 20.0, 0.0, -30.0, 40.0], 95.3);
+    let (actual, _) = direct.pose(Model::Actual, &[10.0, 20.0, 0.0, -30.0, 40.0], 95.3);
+    assert!((nominal.p - actual.p).norm() > 1e-3);
+}
