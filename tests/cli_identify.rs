@@ -270,6 +270,15 @@ fn bad_inputs_name_file_line_and_column() {
     let line = |text: &str, what: &str| text.lines().position(|l| l.contains(what)).unwrap() + 1;
     let at = format!("{typo}:{}:23:", line(&plan_text, "identifies"));
     fails(identify(&typo, &s(&b)), &at, "no axis Q");
+    // Terms the points cannot tell apart: the tilts of C from one ring of the cylinder.
+    let both = plan_text.replacen("\"EY0C\"]", "\"EY0C\", \"EA0C\", \"EB0C\"]", 1);
+    let tilts = write(&dir, "tilts.toml", &both);
+    let at = format!("{tilts}:{}:31:", line(&plan_text, "identifies"));
+    fails(
+        identify(&tilts, &s(&b)),
+        &at,
+        "cannot tell these terms apart",
+    );
     // A point the program does not cut.
     let off = write(&dir, "off.toml", &cylinder_plan(26.0));
     let at = format!("{off}:{}:", line(&plan_text, "\"C5\""));

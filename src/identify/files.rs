@@ -93,6 +93,30 @@ pub fn identify(
     let params = work.params()?;
     let cutting = work.cutting()?;
     let dec = Decoupling::new(&work.machine, &work.plan, params, &cutting.cuts)?;
+    if let Some(combination) = dec.unobservable().first() {
+        // Values along it would be arbitrary: no error file from such a plan.
+        let terms: Vec<String> = combination
+            .iter()
+            .map(|(n, w)| format!("{w:+.2}·{n}"))
+            .collect();
+        let first = combination.first().map_or("", |(n, _)| n.as_str());
+        let term = dec
+            .params
+            .names
+            .iter()
+            .position(|n| n == first)
+            .map_or("", |j| dec.params.term(j));
+        return Err(Error::at(
+            &work.plan_path,
+            work.plan_text.as_bytes(),
+            quoted(&work.plan_text, term),
+            format!(
+                "the plan cannot tell these terms apart: any amount of {} fits the points \
+                 equally well; add points that see them differently, or identify fewer terms",
+                terms.join(" ")
+            ),
+        ));
+    }
     let id = dec.identify(&work.plan, &om, &cm);
     let name = match part {
         Part::Total => "total (CMM - nominal)",
