@@ -214,3 +214,27 @@ fn error_file_is_the_model_the_identification_used() {
     let (actual, _) = direct.pose(Model::Actual, &[10.0, 20.0, 0.0, -30.0, 40.0], 95.3);
     assert!((nominal.p - actual.p).norm() > 1e-3);
 }
+
+#[test]
+fn csv_quotes_feature_names_with_commas() {
+    let (_, mut plan) = shipped();
+    plan.features[0].name = "walls, \"X\"".into();
+    let csv = nominal_csv(&plan);
+    assert!(
+        csv.lines()
+            .nth(1)
+            .unwrap()
+            .starts_with("\"walls, \"\"X\"\"\",BX001,")
+    );
+    assert_eq!(
+        measure::parse(&csv, "m.csv", &plan).unwrap().len(),
+        plan.points().count()
+    );
+    // A bad number after a quoted comma is still found at its column.
+    let bad = csv.replacen(",-97.500000,", ",-97.5q,", 1);
+    let e = measure::parse(&bad, "m.csv", &plan)
+        .unwrap_err()
+        .to_string();
+    let col = "\"walls, \"\"X\"\"\",BX001,".len() + 1;
+    assert!(e.starts_with(&format!("m.csv:2:{col}:")), "{e}");
+}

@@ -119,13 +119,6 @@ impl Decoupling {
         theta.iter().zip(&self.scale).map(|(t, s)| t / s).collect()
     }
 
-    /// Smallest and largest singular value of the scaled response.
-    pub fn conditioning(&self) -> (f64, f64) {
-        let lo = self.singular.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = self.singular.iter().copied().fold(0.0, f64::max);
-        (lo, hi)
-    }
-
     /// The combinations of unknowns the plan cannot tell apart (relative singular value
     /// below [`UNOBSERVABLE`]), as (name, weight) lists of their larger weights.
     pub fn unobservable(&self) -> Vec<Vec<(String, f64)>> {
@@ -139,12 +132,6 @@ impl Decoupling {
                     .collect()
             })
             .collect()
-    }
-
-    /// Correlation of the estimates of unknowns `a` and `b` under independent noise.
-    pub fn correlation(&self, a: usize, b: usize) -> f64 {
-        let (ra, rb) = (self.inverse.row(a), self.inverse.row(b));
-        ra.dot(&rb) / (ra.norm() * rb.norm())
     }
 
     /// The standard deviation of each unknown (mm, rad) when every deviation has noise of

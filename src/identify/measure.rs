@@ -57,9 +57,22 @@ pub fn parse(text: &str, path: &str, plan: &Plan) -> Result<Points> {
         // Byte offset of field k in the row (for the column of a message).
         let field_at = |k: usize| -> usize {
             let line = &text[start..];
+            // The k-th comma outside quotes.
+            let mut quoted = false;
+            let mut commas = 0;
             let mut off = 0;
-            for _ in 0..k {
-                off += line[off..].find(',').map_or(0, |i| i + 1);
+            for (i, c) in line.char_indices() {
+                if commas == k || c == '\n' {
+                    break;
+                }
+                match c {
+                    '"' => quoted = !quoted,
+                    ',' if !quoted => {
+                        commas += 1;
+                        off = i + 1;
+                    }
+                    _ => {}
+                }
             }
             start + off + (line[off..].len() - line[off..].trim_start().len())
         };
