@@ -28,8 +28,10 @@ pub struct Decoupling {
     pub ids: Vec<String>,
     /// d deviation / d unknown (mm per mm, mm per rad).
     response: DMatrix<f64>,
-    /// Column scales (1 per mm, 1000 per rad: about what a millimetre of lever makes of
-    /// an angle), so the singular values compare like with like.
+    /// Column scales: the unknowns in mm and mrad, so that a column's size says how much
+    /// the points move per unit of a similar order (a milliradian over the part's levers
+    /// of some 100 mm moves them about as much as 0.1 mm), and singular values compare
+    /// like with like.
     scale: Vec<f64>,
     /// The least-squares inverse of the scaled response.
     inverse: DMatrix<f64>,
