@@ -89,6 +89,24 @@ compensated. The file is written only on success, and atomically."
     /// Error files: convert calibration files from the field (ISG CSV, Etalon) into nccomp's.
     #[command(subcommand)]
     Errors(ErrorsCommand),
+    /// Identify the errors from a cut feature workpiece measured on the machine and on a
+    /// CMM, and separate quasi-static from dynamic errors (paper 000).
+    #[command(
+        after_help = "Example:\n  nccomp identify -m fixtures/ac_trunnion.machine.toml --plan fixtures/feature_workpiece.plan.toml \\\n      --program fixtures/feature_workpiece.nc --on-machine probe.csv --cmm cmm.csv -o errors.toml\n\n\
+Prints the separation table (total = CMM − nominal, quasi-static = CMM − on-machine, dynamic = \
+total − quasi-static) and writes the chosen part as an error file for `nccomp compensate`. \
+See docs/identify.md.\n\nExit status: 0 on success, 2 when an input is unusable (the message \
+names file:line:column)."
+    )]
+    Identify(IdentifyArgs),
+    /// Cut a workpiece in a simulator on a machine with known errors and write what the
+    /// on-machine probe and a CMM would measure (the twin of `identify`).
+    #[command(
+        after_help = "Example:\n  nccomp simulate-cut -m fixtures/ac_trunnion.machine.toml --plan fixtures/feature_workpiece.plan.toml \\\n      --program fixtures/feature_workpiece.nc --errors fixtures/feature_workpiece.quasi_static.toml \\\n      --dynamic fixtures/feature_workpiece.dynamic.toml --on-machine probe.csv --cmm cmm.csv\n\n\
+The quasi-static errors act while cutting and probing, the dynamic ones only while cutting. \
+See docs/identify.md.\n\nExit status: 0 on success, 2 when an input is unusable."
+    )]
+    SimulateCut(SimulateCutArgs),
 }
 
 #[derive(clap::Args)]
@@ -159,6 +177,67 @@ struct ConvertArgs {
     /// Where to write the error file; standard output when left out or `-`.
     #[arg(long, short = 'o', value_name = "ERRORS.toml")]
     output: Option<PathBuf>,
+}
+
+/// Inputs the identification commands share.
+#[derive(clap::Args)]
+struct WorkpieceArgs {
+    /// Machine file (TOML).
+    #[arg(long, short = 'm', value_name = "MACHINE.toml")]
+    machine: PathBuf,
+    /// Measurement plan (TOML): the points, their features and the terms to identify.
+    #[arg(long, value_name = "PLAN.toml")]
+    plan: PathBuf,
+    /// The NC program that cut the workpiece.
+    #[arg(long, value_name = "PROGRAM.nc")]
+    program: PathBuf,
+}
+
+#[derive(clap::Args)]
+struct IdentifyArgs {
+    #[command(flatten)]
+    work: WorkpieceArgs,
+    /// The points the machine's probe measured (CSV: feature,id,x,y,z).
+    #[arg(long, value_name = "A.csv")]
+    on_machine: PathBuf,
+    /// The points the CMM measured (CSV: feature,id,x,y,z).
+    #[arg(long, value_name = "B.csv")]
+    cmm: PathBuf,
+    /// Which errors go into the error file.
+    #[arg(long, value_enum, default_value = "quasi-static")]
+    part: nccomp::identify::separate::Part,
+    /// Where to write the error file (left out: only the table is printed).
+    #[arg(long, short = 'o', value_name = "ERRORS.toml")]
+    output: Option<PathBuf>,
+}
+
+#[derive(clap::Args)]
+struct SimulateCutArgs {
+    #[command(flatten)]
+    work: WorkpieceArgs,
+    /// The machine's quasi-static errors (error file).
+    #[arg(long, short = 'e', value_name = "ERRORS.toml")]
+    errors: PathBuf,
+    /// Errors that act only while cutting (error file).
+    #[arg(long, value_name = "ERRORS.toml")]
+    dynamic: Option<PathBuf>,
+    /// Measurement noise, standard deviation per coordinate (µm).
+    #[arg(
+        long,
+        value_name = "UM",
+        default_value_t = 0.5,
+        allow_negative_numbers = true
+    )]
+    noise: f64,
+    /// Seed of the noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Where to write the on-machine probe's points (CSV).
+    #[arg(long, value_name = "A.csv")]
+    on_machine: PathBuf,
+    /// Where to write the CMM's points (CSV).
+    #[arg(long, value_name = "B.csv")]
+    cmm: PathBuf,
 }
 
 /// Output formats of the budget commands.
@@ -385,6 +464,8 @@ fn main() -> ExitCode {
         Command::Probe(args) => probe(&args),
         Command::Report(args) => report(&args),
         Command::Errors(ErrorsCommand::Convert(args)) => convert(&args),
+        Command::Identify(args) => identify(&args),
+        Command::SimulateCut(args) => simulate_cut(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -929,6 +1010,33 @@ fn tolerance(args: &ToleranceArgs) -> nccomp::Result<()> {
         .json(),
     };
     print(&text)
+}
+
+fn identify(args: &IdentifyArgs) -> nccomp::Result<()> {
+    use nccomp::identify::files::{self, Workpiece};
+    let w = &args.work;
+    let work = Workpiece::load(&w.machine, &w.plan, &w.program)?;
+    let id = files::identify(&work, &args.on_machine, &args.cmm, args.part)?;
+    if let Some(path) = &args.output {
+        write_atomically(path, id.errors.as_bytes())?;
+    }
+    print(&id.table)
+}
+
+fn simulate_cut(args: &SimulateCutArgs) -> nccomp::Result<()> {
+    use nccomp::identify::files::{self, Workpiece};
+    let w = &args.work;
+    let work = Workpiece::load(&w.machine, &w.plan, &w.program)?;
+    let sim = files::simulate_cut(
+        &work,
+        &args.errors,
+        args.dynamic.as_deref(),
+        args.noise,
+        args.seed,
+    )?;
+    write_atomically(&args.on_machine, sim.on_machine.as_bytes())?;
+    write_atomically(&args.cmm, sim.cmm.as_bytes())?;
+    print(&sim.summary)
 }
 
 /// Write `bytes` to `path` through a temporary file in the same directory and a rename, so

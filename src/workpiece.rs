@@ -33,6 +33,10 @@ pub struct PathPoint {
 pub struct Operation {
     pub name: &'static str,
     pub points: Vec<PathPoint>,
+    /// Rotary axis values, by program word, the operation starts from where its path
+    /// leaves them free (C while the tool is along C on an AC trunnion). Empty: the
+    /// previous operation's values.
+    pub index: Vec<(char, f64)>,
 }
 
 /// The artefact's dimensions (mm, degrees).
@@ -95,6 +99,102 @@ impl FeatureWorkpiece {
             self.cone(),
             self.cylinder(r),
         ]
+        .into_iter()
+        .chain(self.index_faces(r))
+        .collect()
+    }
+
+    /// Index faces, our extension for identification (docs/feature-workpiece.md): single
+    /// passes cut by X or Y alone at several rotary indexes, so that the location errors
+    /// of A and C, which tilt the part as a whole, show on long lines:
+    ///
+    /// - the four top strips of the upper block (between it and the wedge), each cut by X
+    ///   at A = 0 with C turned so that the strip faces the front (C 0, 90, 180, −90);
+    /// - the ±X strips of the base block's step, cut by Y at A = 0, C = 0;
+    /// - the ±Y strips of the base block's step, cut by X with the ball's side at
+    ///   A = −90° (the tool along the part's ∓Y);
+    /// - the ±Y walls of the upper block, cut face-on by X at A = −90°, between the two
+    ///   contours of the wall operation.
+    pub fn index_faces(&self, r: f64) -> Vec<Operation> {
+        let z = Vector3::z();
+        let top = self.base.1 + self.upper.1;
+        let strip = (self.upper.0 + self.wedge_size) / 4.0;
+        let step = (self.base.0 + self.upper.0) / 4.0;
+        let half = self.upper.0 / 2.0 + 5.0;
+        let long = self.base.0 / 2.0 + 5.0;
+        let pass = |from: Vector3<f64>, to: Vector3<f64>, dir: Vector3<f64>| {
+            [from, to].map(|tip| PathPoint {
+                tip,
+                dir,
+                rapid: false,
+            })
+        };
+        let mut ops = Vec::new();
+        let names = [
+            "index strip -Y: X alone, A = 0, C = 0",
+            "index strip +X: X alone, A = 0, C = 90",
+            "index strip +Y: X alone, A = 0, C = 180",
+            "index strip -X: X alone, A = 0, C = -90",
+        ];
+        for (k, name) in names.into_iter().enumerate() {
+            let turn =
+                Rotation3::from_axis_angle(&Vector3::z_axis(), (90.0 * k as f64).to_radians());
+            let out = turn * -Vector3::y();
+            let along = turn * Vector3::x();
+            let centre = out * strip + z * top;
+            let mut op = with_approach(
+                name,
+                pass(centre - along * half, centre + along * half, z).to_vec(),
+            );
+            let c = if k == 3 { -90.0 } else { 90.0 * k as f64 };
+            op.index = vec![('C', c)];
+            ops.push(op);
+        }
+        for (name, x) in [
+            ("step strip -X: Y alone, A = 0", -step),
+            ("step strip +X: Y alone, A = 0", step),
+        ] {
+            let mut op = with_approach(
+                name,
+                pass(
+                    Vector3::new(x, -long, self.base.1),
+                    Vector3::new(x, long, self.base.1),
+                    z,
+                )
+                .to_vec(),
+            );
+            op.index = vec![('C', 0.0)];
+            ops.push(op);
+        }
+        for (name, sign) in [
+            ("step strip -Y: X alone, ball side, A = -90", -1.0),
+            ("step strip +Y: X alone, ball side, A = -90", 1.0),
+        ] {
+            let dir = Vector3::y() * sign;
+            let centre = |x: f64| Vector3::new(x, sign * step, self.base.1 + r);
+            ops.push(with_approach(
+                name,
+                pass(centre(-long) - dir * r, centre(long) - dir * r, dir).to_vec(),
+            ));
+        }
+        let face = self.base.1 + 4.0 + r;
+        for (name, sign) in [
+            ("upper wall -Y face-on: X alone, A = -90", -1.0),
+            ("upper wall +Y face-on: X alone, A = -90", 1.0),
+        ] {
+            let dir = Vector3::y() * sign;
+            let y = sign * self.upper.0 / 2.0;
+            ops.push(with_approach(
+                name,
+                pass(
+                    Vector3::new(-half, y, face),
+                    Vector3::new(half, y, face),
+                    dir,
+                )
+                .to_vec(),
+            ));
+        }
+        ops
     }
 
     /// Contours around a square block with the tool vertical, the ball's side on the wall.
@@ -207,7 +307,11 @@ fn with_approach(name: &'static str, cut: Vec<PathPoint>) -> Operation {
             rapid: true,
         });
     }
-    Operation { name, points }
+    Operation {
+        name,
+        points,
+        index: Vec::new(),
+    }
 }
 
 /// Why a path could not be turned into a program.
@@ -317,6 +421,10 @@ pub fn to_program(
                 for &k in &rotary {
                     if machine.axes[kin.axes()[k]].travel.is_none() {
                         previous[k] = (previous[k] + 180.0).rem_euclid(360.0) - 180.0;
+                    }
+                    let word = machine.axes[kin.axes()[k]].word;
+                    if let Some(&(_, v)) = op.index.iter().find(|(w, _)| *w == word) {
+                        previous[k] = v;
                     }
                 }
             }

@@ -57,9 +57,22 @@ pub fn parse(text: &str, path: &str, plan: &Plan) -> Result<Points> {
         // Byte offset of field k in the row (for the column of a message).
         let field_at = |k: usize| -> usize {
             let line = &text[start..];
+            // The k-th comma outside quotes.
+            let mut quoted = false;
+            let mut commas = 0;
             let mut off = 0;
-            for _ in 0..k {
-                off += line[off..].find(',').map_or(0, |i| i + 1);
+            for (i, c) in line.char_indices() {
+                if commas == k || c == '\n' {
+                    break;
+                }
+                match c {
+                    '"' => quoted = !quoted,
+                    ',' if !quoted => {
+                        commas += 1;
+                        off = i + 1;
+                    }
+                    _ => {}
+                }
             }
             start + off + (line[off..].len() - line[off..].trim_start().len())
         };
@@ -122,12 +135,24 @@ pub fn load(path: &std::path::Path, plan: &Plan) -> Result<Points> {
 /// Write points as a measurement CSV in plan order.
 pub fn to_csv(plan: &Plan, points: &Points) -> String {
     let mut out = String::from("feature,id,x,y,z\n");
+    // A field with a comma or a quote is quoted, its quotes doubled.
+    let field = |s: &str| {
+        if s.contains([',', '"', '\n']) {
+            format!("\"{}\"", s.replace('"', "\"\""))
+        } else {
+            s.to_string()
+        }
+    };
     for f in &plan.features {
         for p in &f.points {
             if let Some(v) = points.get(&p.id) {
                 out.push_str(&format!(
-                    "{},{},{:.5},{:.5},{:.5}\n",
-                    f.name, p.id, v.x, v.y, v.z
+                    "{},{},{:.6},{:.6},{:.6}\n",
+                    field(&f.name),
+                    field(&p.id),
+                    v.x,
+                    v.y,
+                    v.z
                 ));
             }
         }

@@ -1,14 +1,20 @@
-//! Identifying a machine's errors from measured points (paper 000's feature workpiece).
+//! Identifying a machine's errors from a cut and measured workpiece (paper 000).
 //!
-//! [`fit`] holds the geometric least-squares fits; [`plan`] the measurement plan (features,
-//! points, which errors each set identifies); [`measure`] reads the measured points;
-//! [`separate`] applies the paper's formulas and separates total, quasi-static and dynamic
-//! errors; [`cutting`] finds where a program cut each planned point; [`simulate`] is the
-//! twin that cuts and measures a workpiece on a machine with known errors.
+//! The pipeline: [`plan`] (the measured points and the terms to identify) → [`params`]
+//! (the unknowns and the error model they make) → [`cutting`] (where the program cut each
+//! point) → [`decouple`] (point deviations onto the unknowns through the kinematics, and
+//! the paper's [`separate`]ion of total, quasi-static and dynamic errors) → [`report`].
+//! [`measure`] reads measured points; [`fit`] holds geometric fits; [`simulate`] is the
+//! twin that cuts and measures a workpiece on a machine with known errors; [`files`] runs
+//! the `identify` and `simulate-cut` commands over files.
 
 pub mod cutting;
+pub mod decouple;
+pub mod files;
 pub mod fit;
 pub mod measure;
+pub mod params;
 pub mod plan;
+pub mod report;
 pub mod separate;
 pub mod simulate;

@@ -1,5 +1,5 @@
 //! The measurement plan: which points of which feature are measured, where they nominally
-//! are, how the tool met them, and which errors each set identifies (docs/identify.md).
+//! are, and which error terms the plan identifies (docs/identify.md).
 //!
 //! A plan is a TOML file the user can adapt to their own artefact:
 //!
@@ -8,45 +8,34 @@
 //! tool = 1                   # H number of the finishing tool
 //!
 //! [[feature]]
-//! name = "x_straightness"
-//! kind = "straightness"      # straightness | angular | circle
-//! axis = "X"                 # the axis that moved while the feature was cut
-//! identifies = ["EYX", "EZX"]
+//! name = "base walls along X"
+//! identifies = ["EYX"]       # error terms this feature is for (docs/identify.md)
+//! stations = [-90.0, -70.0, -50.0, -30.0, -10.0, 10.0, 30.0, 50.0, 70.0, 90.0]
 //! points = [
-//!   { id = "XS01", at = [-90.0, -100.0, 5.0], normal = [0.0, -1.0, 0.0], tool = [0.0, 0.0, 1.0] },
+//!   { id = "BX001", at = [-97.5, -100.0, 5.0], normal = [0.0, -1.0, 0.0] },
 //! ]
 //! ```
 //!
-//! Kinds: `straightness` (points in order along `axis`; deviations from the first point,
-//! paper 000 eqs. 1–5; two such features, X and Y, also give the squareness, eqs. 6–10);
-//! `angular` (a line of points along Y at the X position `at_x`; slopes, eqs. 11–15);
-//! `circle` (a ring cut by one rotary axis; 3-D circle fit, offset at the plane through
-//! `reference` normal to the nominal ring axis, divided by cos(`offset_angle`), and
-//! tilt, eqs. 16–27).
+//! Points are in the part frame (mm): `at` is the nominal point on the finished surface,
+//! `normal` its outward normal, the direction a probe touches it along. Every point must
+//! lie on the finishing program's path (the ball's centre passes over it at `tool_radius`
+//! along the normal). The terms are solved for from all points together, through the
+//! kinematics; `identifies` only says which terms the plan provides and where the
+//! straightness stations are.
 
 use crate::workpiece::FeatureWorkpiece;
 use crate::{Error, Result};
 use nalgebra::{Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
-/// What a feature's points are for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Kind {
-    Straightness,
-    Angular,
-    Circle,
-}
-
-/// One planned point: id, nominal position on the surface, outward surface normal and the
-/// tool direction it was cut with (all in the part frame, mm).
+/// One planned point: id, nominal position on the surface and outward surface normal,
+/// in the part frame (mm).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PlanPoint {
     pub id: String,
     pub at: [f64; 3],
     pub normal: [f64; 3],
-    pub tool: [f64; 3],
 }
 
 /// A set of points on one feature.
@@ -54,22 +43,14 @@ pub struct PlanPoint {
 #[serde(deny_unknown_fields)]
 pub struct Feature {
     pub name: String,
-    pub kind: Kind,
-    /// Straightness: the moving axis ("X" or "Y"). Circle: the rotary axis.
-    pub axis: String,
-    /// Error terms this set identifies: straightness base names (EYX), or full names
-    /// (ECX@-50 for pitch/yaw at X = -50, EX0C ...).
+    /// Error terms: position-independent names (EC0Y, EX0C), error motions at a position
+    /// (EBX@-50), or straightness over `stations` (EYX). See [`super::params`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub identifies: Vec<String>,
-    /// Angular: the X position of the line.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub at_x: Option<f64>,
-    /// Circle: where the axis line is located (its point at home in the part frame).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub reference: Option<[f64; 3]>,
-    /// Circle: the paper's projection angle in eq. 16 (degrees; 0 when the ring's axis is
-    /// the located axis in the part frame, as on the AC trunnion here).
-    #[serde(default)]
-    pub offset_angle: f64,
+    /// Table positions of the straightness terms in `identifies` (axis values, program
+    /// coordinates); the two ends are the reference line (0).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stations: Vec<f64>,
     pub points: Vec<PlanPoint>,
 }
 
@@ -83,15 +64,6 @@ pub struct Plan {
     pub features: Vec<Feature>,
 }
 
-/// Least points per kind of feature.
-pub fn min_points(kind: Kind) -> usize {
-    match kind {
-        Kind::Straightness => 3,
-        Kind::Angular => 3,
-        Kind::Circle => 6,
-    }
-}
-
 impl Plan {
     /// Read a plan; `path` names it in messages.
     pub fn parse(text: &str, path: &str) -> Result<Plan> {
@@ -99,37 +71,48 @@ impl Plan {
             let at = e.span().map_or(0, |s| s.start);
             Error::at(path, text.as_bytes(), at, e.message().to_string())
         })?;
-        let here = |what: &str| {
-            let at = text.find(what).unwrap_or(0);
-            move |m: String| Error::at(path, text.as_bytes(), at, m)
-        };
+        let err = |needle: &str, m: String| Error::at(path, text.as_bytes(), find(text, needle), m);
+        if !(plan.tool_radius.is_finite() && plan.tool_radius >= 0.0) {
+            return Err(err(
+                "tool_radius",
+                format!(
+                    "tool_radius = {}: expected the ball radius in mm (0 or more)",
+                    plan.tool_radius
+                ),
+            ));
+        }
+        if plan.features.is_empty() {
+            return Err(err("", "the plan has no [[feature]]".into()));
+        }
         let mut ids = std::collections::BTreeSet::new();
         for f in &plan.features {
-            let err = here(&format!("\"{}\"", f.name));
-            if f.points.len() < min_points(f.kind) {
-                return Err(err(format!(
-                    "feature `{}` has {} points; a {:?} set needs at least {}",
-                    f.name,
-                    f.points.len(),
-                    f.kind,
-                    min_points(f.kind)
-                )));
-            }
-            if f.kind == Kind::Angular && f.at_x.is_none() {
-                return Err(err(format!("angular feature `{}` needs `at_x`", f.name)));
-            }
-            if f.kind == Kind::Circle && f.reference.is_none() {
-                return Err(err(format!(
-                    "circle feature `{}` needs `reference`",
-                    f.name
-                )));
+            if f.points.is_empty() {
+                return Err(err(
+                    &format!("\"{}\"", f.name),
+                    format!("feature `{}` has no points", f.name),
+                ));
             }
             for p in &f.points {
+                let here = format!("\"{}\"", p.id);
                 if !ids.insert(p.id.clone()) {
-                    return Err(here(&format!("\"{}\"", p.id))(format!(
-                        "point id `{}` is used twice",
-                        p.id
-                    )));
+                    let second = text.match_indices(&here).nth(1).map_or(0, |(i, _)| i);
+                    return Err(Error::at(
+                        path,
+                        text.as_bytes(),
+                        second,
+                        format!("point id `{}` is used twice", p.id),
+                    ));
+                }
+                let n = v3(p.normal);
+                let finite = n.iter().chain(&p.at).all(|c| c.is_finite());
+                if !(finite && n.norm() > 1e-9) {
+                    return Err(err(
+                        &here,
+                        format!(
+                            "point `{}`: expected finite coordinates and a non-zero normal",
+                            p.id
+                        ),
+                    ));
                 }
             }
         }
@@ -141,143 +124,268 @@ impl Plan {
         Plan::parse(&text, &path.display().to_string())
     }
 
+    /// The plan as a TOML file (one point per line).
     pub fn to_toml(&self) -> String {
-        let body = toml::to_string(self).unwrap_or_default();
-        format!(
-            "# Measurement plan of paper 000's feature workpiece (src/workpiece.rs), finished \
-with a ball end mill.\n# Written by Plan::feature_workpiece; see docs/identify.md for the format.\n\n{body}"
-        )
+        let mut out = String::from(
+            "# Measurement plan of paper 000's feature workpiece (src/workpiece.rs) with its index\n\
+             # faces, finished with a ball end mill. Written by Plan::feature_workpiece; see\n\
+             # docs/identify.md for the format.\n\n",
+        );
+        out.push_str(&format!(
+            "tool_radius = {:?}\ntool = {}\n",
+            self.tool_radius, self.tool
+        ));
+        let list = |v: &[f64]| {
+            v.iter()
+                .map(|x| format!("{x:?}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        for f in &self.features {
+            out.push_str(&format!("\n[[feature]]\nname = {:?}\n", f.name));
+            if !f.identifies.is_empty() {
+                let names: Vec<String> = f.identifies.iter().map(|n| format!("{n:?}")).collect();
+                out.push_str(&format!("identifies = [{}]\n", names.join(", ")));
+            }
+            if !f.stations.is_empty() {
+                out.push_str(&format!("stations = [{}]\n", list(&f.stations)));
+            }
+            out.push_str("points = [\n");
+            for p in &f.points {
+                out.push_str(&format!(
+                    "  {{ id = {:?}, at = [{}], normal = [{}] }},\n",
+                    p.id,
+                    list(&p.at),
+                    list(&p.normal)
+                ));
+            }
+            out.push_str("]\n");
+        }
+        out
     }
 
-    pub fn feature(&self, name: &str) -> Option<&Feature> {
-        self.features.iter().find(|f| f.name == name)
+    /// All planned points, in plan order.
+    pub fn points(&self) -> impl Iterator<Item = &PlanPoint> {
+        self.features.iter().flat_map(|f| f.points.iter())
     }
 
-    /// The plan for [`FeatureWorkpiece`] finished with a ball of radius `r` (H1).
+    /// The plan for [`FeatureWorkpiece`] with its index faces, finished with a ball of
+    /// radius `r` (H1): lines of points 2.5 mm apart on every pass of the walls, strips
+    /// and faces, a grid on the wedge, rings on the cylinder and the cone.
     pub fn feature_workpiece(w: &FeatureWorkpiece, r: f64) -> Plan {
-        let pt = |id: String, at: Vector3<f64>, normal: Vector3<f64>, tool: Vector3<f64>| {
-            let round = |v: Vector3<f64>| [0, 1, 2].map(|i| (v[i] * 1e9).round() / 1e9 + 0.0);
-            PlanPoint {
-                id,
-                at: round(at),
-                normal: round(normal),
-                tool: round(tool),
+        let round = |v: Vector3<f64>| v.map(|c| (c * 1e6).round() / 1e6 + 0.0).into();
+        let line = |prefix: &str,
+                    first: usize,
+                    at: &dyn Fn(f64) -> Vector3<f64>,
+                    normal: Vector3<f64>,
+                    half: f64| {
+            let n = (2.0 * half / SPACING).round() as usize;
+            (0..=n)
+                .map(|k| PlanPoint {
+                    id: format!("{prefix}{:03}", first + k + 1),
+                    at: round(at(-half + SPACING * k as f64)),
+                    normal: round(normal),
+                })
+                .collect::<Vec<_>>()
+        };
+        let stations = |half: f64| -> Vec<f64> {
+            let n = (2.0 * half / 20.0).round() as usize;
+            (0..=n).map(|k| -half + 20.0 * k as f64).collect()
+        };
+        let (z, x, y) = (Vector3::z(), Vector3::x(), Vector3::y());
+        let mut features = Vec::new();
+        // The walls of both blocks: lines at the two contour heights (ball centre).
+        let walls = |name: &str, prefix: &str, size: f64, levels: [f64; 2], along_x: bool| {
+            let h = size / 2.0;
+            let mut points = Vec::new();
+            for level in levels {
+                for sign in [-1.0, 1.0] {
+                    let at = |t: f64| {
+                        if along_x {
+                            Vector3::new(t, sign * h, level)
+                        } else {
+                            Vector3::new(sign * h, t, level)
+                        }
+                    };
+                    let normal = if along_x { y * sign } else { x * sign };
+                    let first = points.len();
+                    points.extend(line(prefix, first, &at, normal, h - SPACING));
+                }
+            }
+            Feature {
+                name: name.into(),
+                identifies: Vec::new(),
+                stations: Vec::new(),
+                points,
             }
         };
-        let z = Vector3::z();
-        let h = w.base.0 / 2.0;
-        let stations: Vec<f64> = (0..10).map(|i| -90.0 + 20.0 * f64::from(i)).collect();
-        let mut features = vec![
-            Feature {
-                name: "x_straightness".into(),
-                kind: Kind::Straightness,
-                axis: "X".into(),
-                identifies: vec!["EYX".into(), "EZX".into()],
-                at_x: None,
-                reference: None,
-                offset_angle: 0.0,
-                points: stations
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &x)| {
-                        let at = Vector3::new(x, -h, 5.0);
-                        pt(format!("XS{:02}", i + 1), at, -Vector3::y(), z)
-                    })
-                    .collect(),
-            },
-            Feature {
-                name: "y_straightness".into(),
-                kind: Kind::Straightness,
-                axis: "Y".into(),
-                identifies: vec!["EXY".into(), "EZY".into()],
-                at_x: None,
-                reference: None,
-                offset_angle: 0.0,
-                points: stations
-                    .iter()
-                    .enumerate()
-                    .map(|(i, &y)| {
-                        let at = Vector3::new(-h, y, 5.0);
-                        pt(format!("YS{:02}", i + 1), at, -Vector3::x(), z)
-                    })
-                    .collect(),
-            },
-        ];
+        // The wall contours' tips are 2 and 6 mm above each block's bottom; the ball
+        // touches the wall at its centre's height.
+        let base = [2.0 + r, 6.0 + r];
+        let upper = base.map(|l| l + w.base.1);
+        let mut f = walls(
+            "base block walls along X (X alone)",
+            "BX",
+            w.base.0,
+            base,
+            true,
+        );
+        f.identifies = vec!["EYX".into()];
+        f.stations = stations(w.base.0 / 2.0 - 10.0);
+        features.push(f);
+        let mut f = walls(
+            "base block walls along Y (Y alone)",
+            "BY",
+            w.base.0,
+            base,
+            false,
+        );
+        f.identifies = vec!["EXY".into(), "EC0Y".into()];
+        f.stations = stations(w.base.0 / 2.0 - 10.0);
+        features.push(f);
+        let mut f = walls(
+            "upper block walls along X (X alone)",
+            "UX",
+            w.upper.0,
+            upper,
+            true,
+        );
+        f.identifies = vec!["ECX@-50".into(), "ECX@50".into()];
+        features.push(f);
+        features.push(walls(
+            "upper block walls along Y (Y alone)",
+            "UY",
+            w.upper.0,
+            upper,
+            false,
+        ));
+        // The wedge: a grid on every other pass of its raster.
         let n = w.wedge_normal();
-        let up = n.cross(&Vector3::x());
+        let up = n.cross(&x);
         let centre = Vector3::new(0.0, 0.0, w.wedge_centre_z);
-        for (tag, x) in [("m50", -50.0), ("p50", 50.0)] {
-            features.push(Feature {
-                name: format!("wedge_x{tag}"),
-                kind: Kind::Angular,
-                axis: "X".into(),
-                identifies: vec![format!("EBX@{x}"), format!("ECX@{x}")],
-                at_x: Some(x),
-                reference: None,
-                offset_angle: 0.0,
-                points: (0..15)
-                    .map(|i| {
-                        let v = -56.0 + 8.0 * f64::from(i);
-                        let at = centre + Vector3::x() * x + up * v;
-                        pt(format!("W{tag}{:02}", i + 1), at, n, n)
-                    })
-                    .collect(),
-            });
+        let mut points = Vec::new();
+        for pass in 0..15 {
+            let v = -56.0 + 8.0 * f64::from(pass);
+            let first = points.len();
+            points.extend(line("WE", first, &|t| centre + x * t + up * v, n, 56.0));
         }
-        // The cylinder: C alone at A = 10 deg, ring at the middle of the band.
-        let (s, c) = w.cylinder_tilt.to_radians().sin_cos();
+        features.push(Feature {
+            name: "wedge (3+2 at A = 10)".into(),
+            identifies: vec!["EBX@-50".into(), "EBX@50".into()],
+            stations: Vec::new(),
+            points,
+        });
+        // The cylinder: C alone, its one ring.
         let zc = (w.cylinder_z.0 + w.cylinder_z.1) / 2.0;
         features.push(Feature {
-            name: "cylinder".into(),
-            kind: Kind::Circle,
-            axis: "C".into(),
-            identifies: ["EX0C", "EY0C", "EA0C", "EB0C"].map(String::from).to_vec(),
-            at_x: None,
-            reference: Some([0.0, 0.0, 0.0]),
-            offset_angle: 0.0,
+            name: "cylinder (C alone)".into(),
+            identifies: ["EX0C", "EY0C"].map(String::from).to_vec(),
+            stations: Vec::new(),
             points: (0..72)
                 .map(|k| {
                     let turn = Rotation3::from_axis_angle(
                         &Vector3::z_axis(),
                         (5.0 * f64::from(k)).to_radians(),
                     );
-                    let radial = turn * Vector3::new(0.0, -1.0, 0.0);
-                    let dir = turn * Vector3::new(0.0, -s, c);
-                    let at = radial * w.cylinder_radius + Vector3::new(0.0, 0.0, zc);
-                    pt(format!("CY{:02}", k + 1), at, radial, dir)
+                    let radial = turn * -y;
+                    PlanPoint {
+                        id: format!("CY{:03}", k + 1),
+                        at: round(radial * w.cylinder_radius + z * zc),
+                        normal: round(radial),
+                    }
                 })
                 .collect(),
         });
-        // The cone: one ring of its five-axis finishing path (h = 5 mm).
+        // The cone: its six rings (five axes at once).
         let (s, c) = w.cone_half_angle.to_radians().sin_cos();
-        let hh = 5.0;
-        let radius = w.cone_base_radius - hh * s / c;
-        let e2 = n.cross(&Vector3::x());
+        let e2 = n.cross(&x);
+        let mut points = Vec::new();
+        for ring in 0..6 {
+            let hh = w.cone_height * (f64::from(ring) + 0.5) / 6.0;
+            let radius = w.cone_base_radius - hh * s / c;
+            for k in 0..36 {
+                let phi = (10.0 * f64::from(k)).to_radians();
+                let radial = x * phi.cos() + e2 * phi.sin();
+                points.push(PlanPoint {
+                    id: format!("CO{:03}", points.len() + 1),
+                    at: round(centre + n * hh + radial * radius),
+                    normal: round(radial * c + n * s),
+                });
+            }
+        }
         features.push(Feature {
-            name: "cone".into(),
-            kind: Kind::Circle,
-            axis: "A".into(),
-            identifies: ["EY0A", "EZ0A", "EB0A", "EC0A"].map(String::from).to_vec(),
-            at_x: None,
-            reference: Some((centre + n * hh).into()),
-            offset_angle: 0.0,
-            points: (0..72)
-                .map(|k| {
-                    let phi = (5.0 * f64::from(k)).to_radians();
-                    let radial = Vector3::x() * phi.cos() + e2 * phi.sin();
-                    let dir = radial * c + n * s;
-                    let at = centre + n * hh + radial * radius;
-                    pt(format!("CO{:02}", k + 1), at, dir, dir)
-                })
-                .collect(),
+            name: "cone (five axes)".into(),
+            identifies: ["EY0A", "EZ0A"].map(String::from).to_vec(),
+            stations: Vec::new(),
+            points,
         });
-        let _ = r;
+        // Index faces (FeatureWorkpiece::index_faces). Points stay 5 mm clear of where
+        // two passes cross.
+        let top = w.base.1 + w.upper.1;
+        let strip = (w.upper.0 + w.wedge_size) / 4.0;
+        let step = (w.base.0 + w.upper.0) / 4.0;
+        let mut points = Vec::new();
+        for k in 0..4 {
+            let turn =
+                Rotation3::from_axis_angle(&Vector3::z_axis(), (90.0 * f64::from(k)).to_radians());
+            let (out, along) = (turn * -y, turn * x);
+            let first = points.len();
+            let at = |t: f64| out * strip + along * t + z * top;
+            points.extend(line("IS", first, &at, z, strip - 5.0));
+        }
+        features.push(Feature {
+            name: "index strips (X alone at C 0 / 90 / 180 / -90)".into(),
+            identifies: ["EZX", "EA0C", "EB0C"].map(String::from).to_vec(),
+            stations: stations(strip - 10.0),
+            points,
+        });
+        let mut points = Vec::new();
+        for sign in [-1.0, 1.0] {
+            let first = points.len();
+            let at = |t: f64| Vector3::new(sign * step, t, w.base.1);
+            points.extend(line("SY", first, &at, z, step - 5.0));
+        }
+        features.push(Feature {
+            name: "step strips along Y (Y alone)".into(),
+            identifies: vec!["EZY".into()],
+            stations: stations(step - 10.0),
+            points,
+        });
+        let mut points = Vec::new();
+        for sign in [-1.0, 1.0] {
+            let first = points.len();
+            let at = |t: f64| Vector3::new(t, sign * step, w.base.1);
+            points.extend(line("SX", first, &at, z, step - 5.0));
+        }
+        let face = w.base.1 + 4.0 + r;
+        for sign in [-1.0, 1.0] {
+            let first = points.len();
+            let at = |t: f64| Vector3::new(t, sign * w.upper.0 / 2.0, face);
+            points.extend(line("FY", first, &at, y * sign, w.upper.0 / 2.0 - SPACING));
+        }
+        features.push(Feature {
+            name: "step strips and upper walls at A = -90 (X alone)".into(),
+            identifies: ["EB0A", "EC0A"].map(String::from).to_vec(),
+            stations: Vec::new(),
+            points,
+        });
         Plan {
             tool_radius: r,
             tool: 1,
             features,
         }
     }
+}
+
+/// Spacing of the points along a line (mm).
+const SPACING: f64 = 2.5;
+
+/// Byte offset of the first `needle` in `text` (0 when absent).
+fn find(text: &str, needle: &str) -> usize {
+    if needle.is_empty() {
+        return 0;
+    }
+    text.find(needle).unwrap_or(0)
 }
 
 pub fn v3(a: [f64; 3]) -> Vector3<f64> {

@@ -1,49 +1,25 @@
 //! The twin: cut the feature workpiece on a machine with known errors and measure it.
 //!
 //! - Cutting: the machine runs the program with its quasi-static error model plus a
-//!   dynamic error model that acts only while cutting (cutting forces, servo lag: here an
-//!   extra set of the same terms). The surface near each planned point is where that
-//!   machine put the ball ([`cutting::displacement`]).
-//! - On-machine probing: the probe is driven to the planned point through the same
-//!   machine, now unloaded, so only the quasi-static errors act; it reports the nominal
-//!   coordinates of where it touched: cut surface − quasi-static displacement.
-//! - CMM: sees the cut surface itself.
+//!   dynamic error model that acts only while cutting (cutting forces, servo lag; here an
+//!   extra model of the same kind). The surface near each planned point is where that
+//!   machine put the ball ([`cutting::deviation`]).
+//! - On-machine probing: the probe touches each planned point in the pose the program
+//!   cut it in, through the same machine, now unloaded, so only the quasi-static errors
+//!   act; it reports the nominal coordinates of where it touched: along the normal, the
+//!   cut deviation less the quasi-static one.
+//! - CMM: sees the cut surface itself, in the part frame.
 //!
-//! Both measurements get seeded Gaussian noise (σ per coordinate).
+//! Both measurements get seeded Gaussian noise (σ per coordinate); a probe touching along
+//! the normal reports nothing else of the surface.
 
 use super::cutting::{self, Cut};
 use super::measure::Points;
+use super::params::Params;
 use super::plan::Plan;
-use super::separate::{self, Decoupling, Separation, error_toml, formulas, nominal_points};
 use crate::kinematics::Kinematics;
-use crate::model::{ErrorModel, Machine, error_file};
-
-/// Error terms by name (the decoupling's names), mm and rad.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Terms {
-    pub names: Vec<String>,
-    pub values: Vec<f64>,
-}
-
-impl Terms {
-    /// The error model of these terms, through the contract's error file.
-    pub fn model(&self, machine: &Machine) -> crate::Result<ErrorModel> {
-        let text = error_toml(&self.names, &self.values, "simulated");
-        error_file::parse(&text, "<terms>", machine)
-    }
-
-    pub fn plus(&self, other: &Terms) -> Terms {
-        Terms {
-            names: self.names.clone(),
-            values: self
-                .values
-                .iter()
-                .zip(&other.values)
-                .map(|(a, b)| a + b)
-                .collect(),
-        }
-    }
-}
+use crate::model::{ErrorModel, Machine, MotionTable};
+use nalgebra::Vector3;
 
 /// A small seeded generator (SplitMix64) with Gaussian draws.
 #[derive(Debug, Clone)]
@@ -69,56 +45,42 @@ impl Rng {
     }
 }
 
-/// The term names a plan identifies (its formulas' names).
-pub fn term_names(plan: &Plan) -> Vec<String> {
-    formulas(plan, &nominal_points(plan))
-        .map(|r| r.names)
-        .unwrap_or_default()
-}
-
-/// Random terms: straightness up to `length` mm, angles up to `angle` rad.
-pub fn random_terms(plan: &Plan, rng: &mut Rng, length: f64, angle: f64) -> Terms {
-    let names = term_names(plan);
-    let values = names
-        .iter()
-        .map(|n| {
-            let scale = if separate::is_angle(n) { angle } else { length };
-            scale * (2.0 * rng.uniform() - 1.0)
-        })
-        .collect();
-    Terms { names, values }
-}
-
-/// Paper 000's quasi-static and dynamic columns (tables 2–3) on the model's terms, with
-/// random straightness (the paper gives straightness only as a figure).
-pub fn paper_terms(plan: &Plan, rng: &mut Rng) -> (Terms, Terms) {
-    let deg = 1f64.to_radians();
-    // (name, quasi-static, dynamic) in mm and degrees.
-    let table: [(&str, f64, f64, bool); 13] = [
-        ("EBX@-50", 0.0031, 0.0031, true),
-        ("EBX@50", 0.0021, 0.0072, true),
-        ("ECX@-50", 0.0199, 0.0150, true),
-        ("ECX@50", 0.0387, 0.0060, true),
-        ("EA0C", 0.0039, 0.0018, true),
-        ("EB0C", 0.0021, -0.0076, true),
-        ("EB0A", 0.0019, 0.0029, true),
-        ("EC0A", 0.0052, 0.0027, true),
-        ("EC0Y", 0.0295, 0.0160, true),
-        ("EX0C", 0.0056, -0.0033, false),
-        ("EY0C", 0.0060, 0.0025, false),
-        ("EY0A", 0.0036, 0.0023, false),
-        ("EZ0A", 0.0043, 0.0038, false),
-    ];
-    let mut quasi = random_terms(plan, rng, 0.003, 0.0);
-    let mut dynamic = random_terms(plan, rng, 0.002, 0.0);
-    for (name, q, d, angle) in table {
-        let scale = if angle { deg } else { 1.0 };
-        if let Some(i) = quasi.names.iter().position(|n| n == name) {
-            quasi.values[i] = q * scale;
-            dynamic.values[i] = d * scale;
-        }
+/// The sum of two error models of the same machine (tables on the union of positions).
+pub fn sum(a: &ErrorModel, b: &ErrorModel) -> ErrorModel {
+    let mut out = a.clone();
+    for (o, e) in out.axes.iter_mut().zip(&b.axes) {
+        o.squareness += e.squareness;
+        o.location_shift += e.location_shift;
+        o.location_tilt += e.location_tilt;
+        o.zero += e.zero;
+        o.motion = match (o.motion.take(), &e.motion) {
+            (m, None) => m,
+            (None, Some(m)) => Some(m.clone()),
+            (Some(x), Some(y)) => {
+                let mut positions: Vec<f64> =
+                    x.positions.iter().chain(&y.positions).copied().collect();
+                positions.sort_by(f64::total_cmp);
+                positions.dedup();
+                let mut values: [Option<Vec<f64>>; 6] = Default::default();
+                for (c, v) in values.iter_mut().enumerate() {
+                    if x.values[c].is_some() || y.values[c].is_some() {
+                        *v = Some(
+                            positions
+                                .iter()
+                                .map(|&p| x.sample(p).values[c] + y.sample(p).values[c])
+                                .collect(),
+                        );
+                    }
+                }
+                Some(MotionTable {
+                    positions,
+                    values,
+                    periodic: x.periodic,
+                })
+            }
+        };
     }
-    (quasi, dynamic)
+    out
 }
 
 /// The simulated measurements of one cut.
@@ -128,112 +90,141 @@ pub struct Measured {
     pub cmm: Points,
 }
 
-/// Cut `program` on `machine` with `quasi_static` + `dynamic` errors and measure it. The
-/// probe goes to the cutter locations of `planned` (the uncompensated program's).
-#[allow(clippy::too_many_arguments)]
-pub fn cut_and_measure(
-    machine: &Machine,
-    plan: &Plan,
-    program: &str,
-    planned: &[Cut],
-    quasi_static: &Terms,
-    dynamic: &Terms,
-    noise: f64,
-    seed: u64,
-) -> crate::Result<Measured> {
-    let nominal = Kinematics::new(machine, &ErrorModel::zero(machine), 0)
-        .map_err(|e| crate::Error::Usage(e.to_string()))?;
-    let kin = |t: &Terms| -> crate::Result<Kinematics> {
-        Kinematics::new(machine, &t.model(machine)?, 0)
-            .map_err(|e| crate::Error::Usage(e.to_string()))
-    };
-    let cutting = kin(&quasi_static.plus(dynamic))?;
-    let probing = kin(quasi_static)?;
-    let cuts = cutting::cuts(&nominal, machine, plan, program);
-    let length = cutting::tool_length(machine, plan);
-    let r = plan.tool_radius;
-    let mut rng = Rng::new(seed);
-    let mut noisy = |v: nalgebra::Vector3<f64>| {
-        v + nalgebra::Vector3::new(rng.gauss(), rng.gauss(), rng.gauss()) * noise
-    };
-    let mut on_machine = Points::new();
-    let mut cmm = Points::new();
-    for (cut, probe) in cuts.iter().zip(planned) {
-        let surface = cut.at + cutting::displacement(&cutting, cut, length, r);
-        let read = surface - cutting::displacement(&probing, probe, length, r);
-        cmm.insert(cut.id.clone(), noisy(surface));
-        on_machine.insert(cut.id.clone(), noisy(read));
-    }
-    Ok(Measured { on_machine, cmm })
+/// A cut of `program` on `machine`: where each planned point was cut.
+pub struct Cutting<'a> {
+    machine: &'a Machine,
+    plan: &'a Plan,
+    pub cuts: Vec<Cut>,
 }
 
-/// The identification: the paper's formulas on the three point sets, then the
-/// decoupling onto model terms through the kinematics at the program's cutter locations.
-pub struct Identification {
-    pub raw: Separation,
-    pub model: Separation,
-    pub conditioning: (f64, f64),
-}
+/// How far (mm) a program's ball centre may pass from a planned point's: farther, the
+/// program does not cut it (a compensated program passes up to its corrections away).
+pub const MISS: f64 = 0.5;
 
-/// Build the decoupling for `plan` cut by `planned` on `machine`.
-pub fn decoupling(machine: &Machine, plan: &Plan, planned: &[Cut]) -> crate::Result<Decoupling> {
-    let names = term_names(plan);
-    let base = formulas(plan, &nominal_points(plan)).map_err(crate::Error::Usage)?;
-    let length = cutting::tool_length(machine, plan);
-    let mut failure = None;
-    let dec = Decoupling::new(names.clone(), |j, step| {
-        let mut values = vec![0.0; names.len()];
-        values[j] = step;
-        let t = Terms {
-            names: names.clone(),
-            values,
-        };
-        let result = t.model(machine).and_then(|m| {
-            Kinematics::new(machine, &m, 0).map_err(|e| crate::Error::Usage(e.to_string()))
-        });
-        match result {
-            Ok(kin) => {
-                let pts: Points = planned
-                    .iter()
-                    .map(|c| {
-                        (
-                            c.id.clone(),
-                            c.at + cutting::displacement(&kin, c, length, plan.tool_radius),
-                        )
-                    })
-                    .collect();
-                let raw = formulas(plan, &pts).unwrap_or_else(|_| base.clone());
-                raw.values
-                    .iter()
-                    .zip(&base.values)
-                    .map(|(a, b)| a - b)
-                    .collect()
-            }
-            Err(e) => {
-                failure = Some(e);
-                vec![0.0; names.len()]
-            }
+impl<'a> Cutting<'a> {
+    /// Find where `program` cuts every point of `plan`; a point it does not cut is an
+    /// error: (its id, the message).
+    pub fn new(
+        machine: &'a Machine,
+        plan: &'a Plan,
+        program: &str,
+    ) -> Result<Self, (String, String)> {
+        let nominal = Kinematics::new(machine, &ErrorModel::zero(machine), 0)
+            .map_err(|e| (String::new(), e.to_string()))?;
+        let cuts = cutting::cuts(&nominal, machine, plan, program);
+        if cuts.len() != plan.points().count() {
+            return Err((
+                String::new(),
+                "the program has no cutting (G1) moves".into(),
+            ));
         }
-    });
-    match failure {
-        Some(e) => Err(e),
-        None => Ok(dec),
+        if let Some(c) = cuts.iter().find(|c| c.miss > MISS) {
+            return Err((
+                c.id.clone(),
+                format!(
+                    "planned point `{}` at {:?} is not on the program's path: the ball centre \
+                 passes {:.3} mm from it at best (expected the point on a finished surface, \
+                 `tool_radius` along its normal from the ball centre)",
+                    c.id,
+                    [c.at.x, c.at.y, c.at.z],
+                    c.miss
+                ),
+            ));
+        }
+        Ok(Cutting {
+            machine,
+            plan,
+            cuts,
+        })
+    }
+
+    /// Cut with `quasi_static` + `dynamic` errors and measure, with noise of standard
+    /// deviation `noise` (mm) per coordinate, from `seed`.
+    pub fn measure(
+        &self,
+        quasi_static: &ErrorModel,
+        dynamic: &ErrorModel,
+        noise: f64,
+        seed: u64,
+    ) -> crate::Result<Measured> {
+        let kin = |m: &ErrorModel| {
+            Kinematics::new(self.machine, m, 0).map_err(|e| crate::Error::Usage(e.to_string()))
+        };
+        let cutting = kin(&sum(quasi_static, dynamic))?;
+        let probing = kin(quasi_static)?;
+        let length = cutting::tool_length(self.machine, self.plan);
+        let r = self.plan.tool_radius;
+        let mut rng = Rng::new(seed);
+        let mut noisy =
+            |v: Vector3<f64>| v + Vector3::new(rng.gauss(), rng.gauss(), rng.gauss()) * noise;
+        let mut on_machine = Points::new();
+        let mut cmm = Points::new();
+        for c in &self.cuts {
+            let cut = cutting::deviation(&cutting, c, length, r);
+            let probe = cutting::deviation(&probing, c, length, r);
+            cmm.insert(c.id.clone(), noisy(c.at + c.normal * cut));
+            on_machine.insert(c.id.clone(), noisy(c.at + c.normal * (cut - probe)));
+        }
+        Ok(Measured { on_machine, cmm })
     }
 }
 
-/// Identify from measured points.
-pub fn identify(
-    dec: &Decoupling,
-    plan: &Plan,
-    on_machine: &Points,
-    cmm: &Points,
-) -> crate::Result<Identification> {
-    let f = |p: &Points| formulas(plan, p).map_err(crate::Error::Usage);
-    let raw = Separation::from_raw(&f(&nominal_points(plan))?, &f(on_machine)?, &f(cmm)?);
-    let model = dec.separate(&raw);
-    Ok(Identification {
-        raw,
-        model,
-        conditioning: dec.singular_values(),
-    })
+/// Random values for `params`: lengths uniform in ±`length` (mm), angles in ±`angle`
+/// (rad).
+pub fn random_values(params: &Params, rng: &mut Rng, length: f64, angle: f64) -> Vec<f64> {
+    (0..params.len())
+        .map(|j| {
+            let scale = if params.is_angle(j) { angle } else { length };
+            scale * (2.0 * rng.uniform() - 1.0)
+        })
+        .collect()
+}
+
+/// Paper 000's errors (tables 2–3) as the model's terms: the paper's symbol, the term,
+/// and the total, quasi-static and dynamic values in the paper's units (mm, degrees).
+pub const PAPER: [(&str, &str, f64, f64, f64); 13] = [
+    ("eps_yx (X = -50)", "EBX@-50", 0.0062, 0.0031, 0.0031),
+    ("eps_yx (X = 50)", "EBX@50", 0.0093, 0.0021, 0.0072),
+    ("eps_zx (X = -50)", "ECX@-50", 0.0349, 0.0199, 0.0150),
+    ("eps_zx (X = 50)", "ECX@50", 0.0447, 0.0387, 0.0060),
+    ("eps_xc", "EA0C", 0.0057, 0.0039, 0.0018),
+    ("eps_yc", "EB0C", -0.0055, 0.0021, -0.0076),
+    ("eps_ya", "EB0A", 0.0048, 0.0019, 0.0029),
+    ("eps_za", "EC0A", 0.0079, 0.0052, 0.0027),
+    ("S_yx", "EC0Y", 0.0455, 0.0295, 0.0160),
+    ("XOC", "EX0C", 0.0023, 0.0056, -0.0033),
+    ("YOC", "EY0C", 0.0085, 0.0060, 0.0025),
+    ("XOA", "EY0A", 0.0059, 0.0036, 0.0023),
+    ("YOA", "EZ0A", 0.0081, 0.0043, 0.0038),
+];
+
+/// The paper's symbol for a term (`EC0Y` → `S_yx`, `EYX@-70` → `delta_yx`).
+pub fn paper_symbol(name: &str) -> &'static str {
+    let base = name.split('@').next().unwrap_or(name);
+    match base {
+        "EYX" => "delta_yx",
+        "EZX" => "delta_zx",
+        "EXY" => "delta_xy",
+        "EZY" => "delta_zy",
+        "EBX" => "eps_yx",
+        "ECX" => "eps_zx",
+        _ => PAPER.iter().find(|p| p.1 == base).map_or("", |p| p.0),
+    }
+}
+
+/// Paper 000's quasi-static and dynamic columns on `params` (mm, rad); the straightness,
+/// which the paper gives only as a figure, is random: up to 3 µm quasi-static and 2 µm
+/// dynamic.
+pub fn paper_values(params: &Params, rng: &mut Rng) -> (Vec<f64>, Vec<f64>) {
+    let deg = 1f64.to_radians();
+    let mut quasi = random_values(params, rng, 0.003, 0.0);
+    let mut dynamic = random_values(params, rng, 0.002, 0.0);
+    for (_, term, _, q, d) in PAPER {
+        if let Some(j) = params.names.iter().position(|n| n == term) {
+            let scale = if params.is_angle(j) { deg } else { 1.0 };
+            quasi[j] = q * scale;
+            dynamic[j] = d * scale;
+        }
+    }
+    (quasi, dynamic)
 }
