@@ -208,8 +208,8 @@ fn unsupported_blocks_are_errors_with_line_and_column() {
         ("G1 X#5\n", "p.nc:1:4: X is given by a parameter"),
         ("G43.1 Z2\n", "p.nc:1:1: G43.1 cannot be compensated"),
         (
-            "G1 X1\nG81 X1 Y1 Z-2 R1\n",
-            "p.nc:2:1: G81 cannot be compensated",
+            "G1 X1\nG81 X1 Y1 Z-2 R1 A5\n",
+            "p.nc:2:18: A words in a canned cycle cannot be compensated",
         ),
         ("G1 X1 U3\n", "p.nc:1:7: U is not an axis"),
         (

@@ -375,7 +375,7 @@ impl Compensator<'_> {
 
     /// A piece's nominal point must lie within the travel, and its correction must be
     /// small (as for any block).
-    fn check_piece(
+    pub(super) fn check_piece(
         &self,
         nominal: &[f64; MAX_AXES],
         compensated: &[f64; MAX_AXES],

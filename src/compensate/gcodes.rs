@@ -39,6 +39,10 @@ pub enum GCode {
     WorkOffset,
     /// G80: cancels a canned cycle, moves nothing.
     CancelCycle,
+    /// G73, G81 … G86, G88, G89: drilling and boring cycles (modal).
+    DrillCycle,
+    /// G98 (retract to the initial level) and G99 (to the R plane).
+    CycleReturn,
     /// Modal settings that do not change where block ends are (planes, feed modes, path
     /// control, cancels of things we refuse).
     Harmless,
@@ -64,11 +68,13 @@ pub fn classify(code10: i64) -> GCode {
         490 => ToolLengthOff,
         540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => WorkOffset,
         800 => CancelCycle,
+        730 | 810..=860 | 880 | 890 => DrillCycle,
+        980 | 990 => CycleReturn,
         // Planes, cutter compensation off, exact stop / blending, polar and scaling and
         // rotation off, arc centre modes, feed modes, spindle modes, cycle return modes,
         // lathe radius mode.
         170 | 171 | 180 | 181 | 190 | 191 | 400 | 610 | 611 | 640 | 150 | 500 | 690 | 901 | 911
-        | 930 | 940 | 950 | 960 | 970 | 980 | 990 | 80 => Harmless,
+        | 930 | 940 | 950 | 960 | 970 | 80 => Harmless,
         50..=53 => Unsupported("spline interpolation (G5.x)"),
         70 => Unsupported("lathe diameter mode (G7)"),
         100 => Unsupported("data setting (G10)"),
@@ -83,7 +89,10 @@ pub fn classify(code10: i64) -> GCode {
         680..=689 => Unsupported("coordinate rotation (G68)"),
         160 => Unsupported("polar coordinate programming (G16)"),
         510 | 511 => Unsupported("scaling or mirroring (G51)"),
-        730 | 740 | 760 | 810..=899 => Unsupported("a canned cycle"),
+        740 => Unsupported("a tapping cycle (G74)"),
+        760 => Unsupported("a threading or fine boring cycle (G76)"),
+        870 => Unsupported("a back boring cycle (G87)"),
+        811..=899 => Unsupported("a canned cycle"),
         920..=923 => Unsupported("a coordinate system offset (G92)"),
         _ => Unsupported("this G code"),
     }

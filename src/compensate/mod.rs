@@ -7,6 +7,7 @@
 
 mod arc_keep;
 mod arcs;
+mod cycles;
 mod exact;
 mod gcodes;
 mod split;
@@ -106,6 +107,9 @@ struct State {
     /// In TCP mode: the programmed tip, and the tip as written (mm).
     tip_nominal: [f64; 3],
     tip_written: [f64; 3],
+    /// An active drilling cycle, and where cycles retract to (G98: the initial level).
+    cycle: Option<cycles::Cycle>,
+    retract_to_initial: bool,
     /// The last N number seen and its digits (for numbering inserted blocks).
     last_n: Option<(u64, usize)>,
     /// Programmed (nominal) axis values, mm and degrees.
@@ -254,6 +258,8 @@ impl<'m> Compensator<'m> {
             rapid: false,
             inverse_time: false,
             last_n: None,
+            cycle: None,
+            retract_to_initial: true,
             plane: 0,
             arc_absolute: false,
             clockwise: true,
@@ -355,6 +361,9 @@ impl<'m> Compensator<'m> {
             kind,
             ..
         } = motion;
+        if kind == MoveKind::Cycle {
+            return self.cycle_block(line, tokens, &motion, state, edits, summary, at);
+        }
         if let MoveKind::Arc { clockwise } = kind {
             return self.arc_block(line, tokens, &motion, clockwise, state, edits, summary, at);
         }

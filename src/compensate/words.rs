@@ -12,7 +12,8 @@ pub(super) struct BlockMotion {
     /// Token index of each variable's axis word, if the block has one.
     pub axis_words: [Option<usize>; MAX_AXES],
     /// For arcs: token indices of the I, J, K and R words, and of the G2/G3 word. Under
-    /// G43.5 the I, J, K words are the tool vector.
+    /// G43.5 the I, J, K words are the tool vector; in a cycle R is the retract plane and
+    /// the code word is the cycle's G word.
     pub arc_words: [Option<usize>; 4],
     pub arc_code: Option<usize>,
     /// The block starts with a block delete `/`: it runs only with the switch off.
@@ -33,6 +34,8 @@ pub(super) enum MoveKind {
     Home,
     /// G2/G3 in program coordinates: replaced by compensated straight pieces.
     Arc { clockwise: bool },
+    /// A block of a drilling cycle (G81 …): compensated at its positioning points.
+    Cycle,
 }
 
 impl Compensator<'_> {
@@ -164,7 +167,15 @@ impl Compensator<'_> {
                         }
                         state.work_offset = Some(code10);
                     }
-                    GCode::CancelCycle => state.motion = None,
+                    GCode::CancelCycle => {
+                        state.motion = None;
+                        state.cycle = None;
+                    }
+                    GCode::DrillCycle => {
+                        motion_in_block = Some((GCode::DrillCycle, t.span.start));
+                        arc_code = Some(i);
+                    }
+                    GCode::CycleReturn => state.retract_to_initial = code10 == 980,
                     g @ (GCode::Absolute | GCode::Incremental) => {
                         let incremental = g == GCode::Incremental;
                         if optional && incremental != state.incremental {
@@ -304,6 +315,29 @@ impl Compensator<'_> {
         }
         if let Some((g, _)) = motion_in_block {
             state.motion = Some(g);
+            if g != GCode::DrillCycle {
+                state.cycle = None;
+            }
+        }
+        if state.motion == Some(GCode::DrillCycle)
+            && (motion_in_block.is_some()
+                || axis_words[..n].iter().any(Option::is_some)
+                || arc_word.is_some())
+        {
+            if special.is_some() {
+                let col = motion_in_block.map_or(0, |m| m.1);
+                return Err(at(
+                    col,
+                    "a canned cycle cannot be combined with G28/G30/G53".into(),
+                ));
+            }
+            return Ok(Some(BlockMotion {
+                axis_words,
+                arc_words,
+                arc_code,
+                optional,
+                kind: MoveKind::Cycle,
+            }));
         }
         let arc = state.motion == Some(GCode::Arc);
         if arc && (axis_words[..n].iter().any(Option::is_some) || arc_word.is_some()) {
