@@ -68,7 +68,7 @@ fn outside_checker_roundtrip_passes_on_the_path() {
 fn outside_checker_roundtrip_passes_one_to_one() {
     roundtrip(&[
         "--seeds",
-        "5-10",
+        "5-7",
         "--blocks",
         "150",
         "--path-tol",

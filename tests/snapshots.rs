@@ -75,3 +75,30 @@ fn tcp_vector_program_on_the_ac_trunnion() {
         Options::default()
     ));
 }
+
+/// With the default path tolerance (as `nccomp compensate` runs): arcs in each plane, kept
+/// where the compensated arc stays within it, replaced by straight pieces where not.
+#[test]
+fn arcs_in_each_plane_with_the_path_tolerance() {
+    insta::assert_snapshot!(compensate(
+        "ac_trunnion",
+        "ac_trunnion_arcs",
+        Options {
+            path: Some(nccomp::kinematics::path::PathTolerance::default()),
+            ..Options::default()
+        }
+    ));
+}
+
+/// The G91 program with the default path tolerance: split moves get exact increments.
+#[test]
+fn incremental_program_with_the_path_tolerance() {
+    insta::assert_snapshot!(compensate(
+        "ac_trunnion",
+        "ac_trunnion_g91",
+        Options {
+            path: Some(nccomp::kinematics::path::PathTolerance::default()),
+            ..Options::default()
+        }
+    ));
+}
