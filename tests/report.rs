@@ -361,10 +361,10 @@ fn the_report_renders_its_plots_in_headless_chromium() {
 fn cli_refuses_bad_requests_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let page = dir.path().join("report.html");
-    let bad_program = dir.path().join("g81.nc");
+    let bad_program = dir.path().join("g41.nc");
     std::fs::write(
         &bad_program,
-        "G90 G1 X10 Y10 Z5 A0 C0\nG81 X10 Y10 Z-5 R2 F100\n",
+        "G90 G1 X10 Y10 Z5 A0 C0\nG41 X10 Y10 D1\n",
     )
     .unwrap();
     let run = |extra: &[&str], program: &Path| {
@@ -389,7 +389,7 @@ fn cli_refuses_bad_requests_and_writes_nothing() {
             Path::new(PROGRAM),
             "--grid 500: expected 2 to 101",
         ),
-        (&[][..], bad_program.as_path(), "g81.nc:2:1: "),
+        (&[][..], bad_program.as_path(), "g41.nc:2:1: "),
     ] {
         let out = run(extra, program);
         let stderr = String::from_utf8_lossy(&out.stderr);
