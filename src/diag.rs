@@ -3,6 +3,7 @@
 //! Every message about bad input names the file, the line and the column, and says
 //! what was expected, so a user can go straight to the offending byte.
 
+use annotate_snippets::{AnnotationKind, Group, Level, Origin, Renderer, Snippet};
 use std::fmt;
 use std::path::Path;
 
@@ -16,6 +17,9 @@ pub struct Diagnostic {
     pub message: String,
     /// The text of the offending line (without its line ending), for a caret display.
     pub source_line: String,
+    /// What kind of problem it is, for programs that sort diagnostics (e.g.
+    /// `compensate::TRAVEL_LIMIT`); shown as `error[code]`.
+    pub code: Option<&'static str>,
 }
 
 impl Diagnostic {
@@ -42,23 +46,125 @@ impl Diagnostic {
             column: prefix.chars().count() + 1,
             message: message.into(),
             source_line,
+            code: None,
         }
     }
 
-    /// The diagnostic with the source line and a caret under the column.
-    pub fn render(&self) -> String {
-        let mut out = self.to_string();
-        if !self.source_line.is_empty() {
-            let pad: String = self
-                .source_line
-                .chars()
-                .take(self.column.saturating_sub(1))
-                .map(|c| if c == '\t' { '\t' } else { ' ' })
-                .collect();
-            out.push_str(&format!("\n    {}\n    {}^", self.source_line, pad));
+    /// The diagnostic with a [`Diagnostic::code`].
+    pub fn with_code(self, code: &'static str) -> Self {
+        Diagnostic {
+            code: Some(code),
+            ..self
         }
-        out
     }
+
+    /// The diagnostic as an error, rustc-style: the message, `--> file:line:column`, the
+    /// source line and carets under the offending word. Plain text (no colour).
+    pub fn render(&self) -> String {
+        self.render_as(Severity::Error, false)
+    }
+
+    /// The diagnostic rendered at `severity`, with ANSI colour when `color` is set.
+    pub fn render_as(&self, severity: Severity, color: bool) -> String {
+        renderer(color).render(&[self.group(severity)])
+    }
+
+    fn group(&self, severity: Severity) -> Group<'_> {
+        let mut title = severity.level().primary_title(self.message.as_str());
+        if let Some(code) = self.code {
+            title = title.id(code);
+        }
+        if self.source_line.is_empty() {
+            return title.element(
+                Origin::path(self.path.as_str())
+                    .line(self.line)
+                    .char_column(self.column),
+            );
+        }
+        title.element(
+            Snippet::source(self.source_line.as_str())
+                .line_start(self.line)
+                .path(self.path.as_str())
+                .annotation(AnnotationKind::Primary.span(self.word())),
+        )
+    }
+
+    /// The byte range in `source_line` of the word the diagnostic points at: an NC word
+    /// (a letter and its number, `X-1.5`, `G43.4`), a name (`EZQ`, `tool_chain`), a
+    /// number, or else the one character at the column.
+    pub fn word(&self) -> std::ops::Range<usize> {
+        let line = self.source_line.as_bytes();
+        let start = self
+            .source_line
+            .char_indices()
+            .nth(self.column.saturating_sub(1))
+            .map_or(line.len(), |(i, _)| i);
+        let is_number = |b: u8| b.is_ascii_digit() || b == b'.';
+        let run = |from: usize, pred: &dyn Fn(u8) -> bool| {
+            from + line[from..].iter().take_while(|&&b| pred(b)).count()
+        };
+        let Some(&first) = line.get(start) else {
+            return start..start;
+        };
+        let end = if first.is_ascii_alphabetic() {
+            // A letter directly followed by a (signed) number is an NC word.
+            let after = start + 1;
+            let signed = matches!(line.get(after), Some(b'-' | b'+'))
+                && line.get(after + 1).is_some_and(|&b| is_number(b));
+            if signed || line.get(after).is_some_and(|&b| is_number(b)) {
+                run(after + usize::from(signed), &is_number)
+            } else {
+                run(start, &|b: u8| b.is_ascii_alphanumeric() || b == b'_')
+            }
+        } else if is_number(first) || first == b'-' || first == b'+' {
+            run(start + 1, &is_number)
+        } else {
+            // One character, however many bytes it takes.
+            start
+                + self.source_line[start..]
+                    .chars()
+                    .next()
+                    .map_or(1, char::len_utf8)
+        };
+        start..end.max(start + 1).min(line.len())
+    }
+}
+
+/// How a diagnostic is shown: its level word and colour.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Severity {
+    Error,
+    Warning,
+    Note,
+}
+
+impl Severity {
+    fn level(self) -> Level<'static> {
+        match self {
+            Severity::Error => Level::ERROR,
+            Severity::Warning => Level::WARNING,
+            Severity::Note => Level::NOTE,
+        }
+    }
+}
+
+fn renderer(color: bool) -> Renderer {
+    if color {
+        Renderer::styled()
+    } else {
+        Renderer::plain()
+    }
+}
+
+/// A message without a place in a file, rendered like the diagnostics (`error: ...`).
+pub fn render_message(severity: Severity, message: &str, color: bool) -> String {
+    renderer(color).render(&[Group::with_title(severity.level().primary_title(message))])
+}
+
+/// Whether to colour what goes to `stream`: only on a terminal, and never when the
+/// `NO_COLOR` environment variable is set to anything non-empty (no-color.org).
+pub fn use_color(stream: &impl std::io::IsTerminal) -> bool {
+    stream.is_terminal() && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty())
 }
 
 impl fmt::Display for Diagnostic {
@@ -104,16 +210,23 @@ impl Error {
         }
     }
 
-    /// The message with the source line and a caret, where there is one.
+    /// The error rustc-style, in plain text: located ones with the source line and carets
+    /// under the offending word, each as `error: message` (several separated by a blank
+    /// line).
     pub fn render(&self) -> String {
+        self.render_styled(false)
+    }
+
+    /// [`Error::render`], with ANSI colour when `color` is set (see [`use_color`]).
+    pub fn render_styled(&self, color: bool) -> String {
         match self {
-            Error::Input(d) => d.render(),
+            Error::Input(d) => d.render_as(Severity::Error, color),
             Error::Inputs(ds) => ds
                 .iter()
-                .map(Diagnostic::render)
+                .map(|d| d.render_as(Severity::Error, color))
                 .collect::<Vec<_>>()
-                .join("\n"),
-            other => other.to_string(),
+                .join("\n\n"),
+            other => render_message(Severity::Error, &other.to_string(), color),
         }
     }
 }
@@ -131,6 +244,39 @@ mod tests {
         assert_eq!((d.line, d.column), (2, 7));
         assert_eq!(d.source_line, "G1 Y\u{e9} Z2");
         assert_eq!(d.to_string(), "p.nc:2:7: bad");
-        assert!(d.render().ends_with("\n          ^"));
+        assert_eq!(
+            d.render(),
+            "error: bad\n --> p.nc:2:7\n  |\n2 | G1 Y\u{e9} Z2\n  |       ^^"
+        );
+    }
+
+    #[test]
+    fn the_caret_underlines_the_offending_word() {
+        let word = |line: &str, column: usize| {
+            let d = Diagnostic::at("f", line.as_bytes(), 0, "m");
+            let d = Diagnostic { column, ..d };
+            line[d.word()].to_string()
+        };
+        assert_eq!(word("G81 X10 Y10 Z-5", 1), "G81");
+        assert_eq!(word("G81 X10 Y10 Z-5", 13), "Z-5");
+        assert_eq!(word("G1X10.5Y5", 3), "X10.5");
+        assert_eq!(word("G43.4 H1", 1), "G43.4");
+        assert_eq!(word("EZQ = [1, 2]", 1), "EZQ");
+        assert_eq!(word("EX0C = 2.3", 1), "EX0C");
+        assert_eq!(word("50,abc", 4), "abc");
+        assert_eq!(word("50,-1.5e3", 4), "-1.5");
+        assert_eq!(word("G1 #1", 4), "#");
+        assert_eq!(word("(\u{e9}t\u{e9})", 2), "\u{e9}");
+        // Past the end of the line: an empty word, never a panic.
+        assert_eq!(word("G1", 9), "");
+    }
+
+    #[test]
+    fn errors_without_a_place_render_as_errors_too() {
+        let e = Error::Usage("nothing to do".into());
+        assert_eq!(e.render(), "error: nothing to do");
+        // Colour only when asked for.
+        assert!(!e.render().contains('\x1b'));
+        assert!(e.render_styled(true).contains('\x1b'));
     }
 }

@@ -4,9 +4,11 @@
 //! emit) → the machine and its error model ([`model`]) → kinematics and the solve
 //! ([`kinematics`]) → the compensation pass ([`compensate`]). The command-line interface
 //! is a thin layer over these in the binary. Beside the pipeline, [`probe`] compensates a
-//! touch probe's pre-travel by choosing the probing speed per direction (paper 001).
+//! touch probe's pre-travel by choosing the probing speed per direction (paper 001), and
+//! [`check`] runs the pass over many programs as a CI gate.
 
 pub mod budget;
+pub mod check;
 pub mod compensate;
 pub mod diag;
 pub mod identify;

@@ -3,7 +3,9 @@
 use clap::{Parser, Subcommand};
 use nccomp::budget::study::{self, StudyOptions};
 use nccomp::budget::{self, Poses, Probe, Term, budget_file, ranking, report, tolerance};
+use nccomp::check::{Checker, Status, Thresholds};
 use nccomp::compensate::{Compensator, Options};
+use nccomp::diag::use_color;
 use nccomp::kinematics::Kinematics;
 use nccomp::model::{ErrorModel, error_file, machine_file};
 use std::io::{Read, Write};
@@ -35,11 +37,26 @@ enum Command {
     /// Compensate an NC program through the machine's error model.
     #[command(
         after_help = "Examples:\n  nccomp compensate --machine fixtures/ac_trunnion.machine.toml \\\n      --errors fixtures/ac_trunnion.errors.toml part.nc -o part.comp.nc\n  cat part.nc | nccomp compensate --machine m.toml --errors e.toml > part.comp.nc\n\n\
-Exit status: 0 when the program was compensated, 2 when an input file is unusable or a \
-block cannot be compensated (the message names file:line:column). The output file is \
-written only on success, and atomically: a failed run never leaves a half-written program."
+With --check --expected OUT.nc nothing is written: nccomp compares OUT.nc with what it \
+would write and prints a diff of the first differing blocks (like `rustfmt --check`).\n\n\
+Exit status: 0 when the program was compensated (with --check: OUT.nc is up to date), 1 \
+with --check when OUT.nc differs, 2 when an input file is unusable or a block cannot be \
+compensated (the message names file:line:column). The output file is written only on \
+success, and atomically: a failed run never leaves a half-written program."
     )]
     Compensate(CompensateArgs),
+    /// Check programs as a CI gate: predicted errors before and after compensation,
+    /// travel limits, blocks that cannot be compensated (in parallel, nothing written).
+    #[command(
+        after_help = "Examples:\n  nccomp check -m fixtures/ac_trunnion.machine.toml -e fixtures/ac_trunnion.errors.toml \\\n      'programs/**/*.nc'\n  nccomp check -m m.toml -e e.toml --max-error 0.005 --format json part.nc > check.json\n\n\
+Each program is run through the compensation pass with the options given (the same as \
+`compensate` takes); findings are blocks that cannot be compensated, travel-limit \
+violations, and predicted errors after compensation above --max-error/--max-angle. \
+See docs/ci.md.\n\n\
+Exit status: 0 when every program is clean, 1 when any has findings, 2 when an input is \
+unusable (an option, the machine or error file, or a program that cannot be read)."
+    )]
+    Check(CheckArgs),
     /// Parameter study and key errors: how much each error term moves the tool tip, and
     /// which terms matter most for the error in one direction (paper 002).
     #[command(
@@ -418,18 +435,36 @@ struct ProbeArgs {
 
 #[derive(clap::Args)]
 struct CompensateArgs {
-    /// Machine file (TOML): axes, chains, pivot points, travels, tool lengths.
-    #[arg(long, short = 'm', value_name = "MACHINE.toml")]
-    machine: PathBuf,
-    /// Error file (TOML): the machine's measured errors (a calibration).
-    #[arg(long, short = 'e', value_name = "ERRORS.toml")]
-    errors: PathBuf,
+    #[command(flatten)]
+    pass: PassArgs,
     /// The NC program to compensate; standard input when left out or `-`.
     #[arg(value_name = "INPUT")]
     input: Option<PathBuf>,
     /// Where to write the compensated program; standard output when left out or `-`.
     #[arg(long, short = 'o', value_name = "OUTPUT")]
     output: Option<PathBuf>,
+    /// Write nothing; exit 1 with a diff when the --expected file is not byte for byte
+    /// what nccomp writes now (a stale committed output), 0 when it is.
+    #[arg(long, requires = "expected", conflicts_with = "output")]
+    check: bool,
+    /// With --check: the committed compensated program to compare.
+    #[arg(long, value_name = "OUTPUT", requires = "check")]
+    expected: Option<PathBuf>,
+    /// Print no summary.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+}
+
+/// The machine, its errors and the options of the compensation pass (`compensate` and
+/// `check` share them, so a check predicts what compensation will do).
+#[derive(clap::Args)]
+struct PassArgs {
+    /// Machine file (TOML): axes, chains, pivot points, travels, tool lengths.
+    #[arg(long, short = 'm', value_name = "MACHINE.toml")]
+    machine: PathBuf,
+    /// Error file (TOML): the machine's measured errors (a calibration).
+    #[arg(long, short = 'e', value_name = "ERRORS.toml")]
+    errors: PathBuf,
     /// Tool chain to use on machines with several (e.g. `upper` or `lower` turret); the
     /// machine file's first by default.
     #[arg(long, value_name = "NAME")]
@@ -450,27 +485,50 @@ struct CompensateArgs {
     /// The tool direction's tolerance along the path, in µrad.
     #[arg(long, value_name = "URAD", default_value_t = 10.0)]
     angular_tolerance: f64,
-    /// Print no summary.
-    #[arg(long, short = 'q')]
-    quiet: bool,
+}
+
+#[derive(clap::Args)]
+struct CheckArgs {
+    #[command(flatten)]
+    pass: PassArgs,
+    /// NC programs: paths or glob patterns (quoted, expanded by nccomp: `'progs/**/*.nc'`).
+    #[arg(value_name = "PROGRAM", required = true)]
+    programs: Vec<String>,
+    /// Largest predicted tip error after compensation, mm.
+    #[arg(long, value_name = "MM", default_value_t = 0.010)]
+    max_error: f64,
+    /// Largest predicted tool direction error after compensation, µrad (by default the
+    /// direction error is reported, not judged).
+    #[arg(long, value_name = "URAD")]
+    max_angle: Option<f64>,
+    /// Output format: diagnostics for people, or JSON (docs/check.schema.json).
+    #[arg(long, value_enum, default_value = "human")]
+    format: CheckFormat,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum CheckFormat {
+    Human,
+    Json,
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Compensate(args) => compensate(&args),
-        Command::Sensitivity(args) => sensitivity(&args),
-        Command::Tolerance(args) => tolerance(&args),
-        Command::Probe(args) => probe(&args),
-        Command::Report(args) => report(&args),
-        Command::Errors(ErrorsCommand::Convert(args)) => convert(&args),
-        Command::Identify(args) => identify(&args),
-        Command::SimulateCut(args) => simulate_cut(&args),
+        Command::Check(args) => check(&args),
+        Command::Sensitivity(args) => sensitivity(&args).map(|()| Status::Clean),
+        Command::Tolerance(args) => tolerance(&args).map(|()| Status::Clean),
+        Command::Probe(args) => probe(&args).map(|()| Status::Clean),
+        Command::Report(args) => report(&args).map(|()| Status::Clean),
+        Command::Errors(ErrorsCommand::Convert(args)) => convert(&args).map(|()| Status::Clean),
+        Command::Identify(args) => identify(&args).map(|()| Status::Clean),
+        Command::SimulateCut(args) => simulate_cut(&args).map(|()| Status::Clean),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(status) => ExitCode::from(status.exit_code()),
         Err(e) => {
-            eprintln!("{}", e.render());
+            eprintln!("{}", e.render_styled(use_color(&std::io::stderr())));
             ExitCode::from(EXIT_BAD_INPUT)
         }
     }
@@ -496,9 +554,9 @@ fn is_std(path: &Option<PathBuf>) -> bool {
     path.as_deref().is_none_or(|p| p == Path::new("-"))
 }
 
-fn compensate(args: &CompensateArgs) -> nccomp::Result<()> {
-    let machine = machine_file::load(&args.machine)?;
-    let errors = error_file::load(&args.errors, &machine)?;
+fn compensate(args: &CompensateArgs) -> nccomp::Result<Status> {
+    let machine = machine_file::load(&args.pass.machine)?;
+    let errors = error_file::load(&args.pass.errors, &machine)?;
     let (src, name) = if is_std(&args.input) {
         use std::io::IsTerminal;
         if std::io::stdin().is_terminal() {
@@ -516,31 +574,19 @@ fn compensate(args: &CompensateArgs) -> nccomp::Result<()> {
         let buf = std::fs::read(path).map_err(|e| nccomp::Error::io(path, e))?;
         (buf, path.display().to_string())
     };
-    let v = args.angular_tolerance;
-    if !(v.is_finite() && v > 0.0) {
-        return Err(nccomp::Error::Usage(format!(
-            "--angular-tolerance {v}: expected a positive number of µrad"
-        )));
-    }
-    let options = Options {
-        tool_chain: args.tool_chain.clone(),
-        allow_limit_violations: args.allow_limit_violations,
-        hold: args.hold.clone(),
-        path: args
-            .tolerance
-            .0
-            .map(|mm| nccomp::kinematics::path::PathTolerance {
-                position: mm,
-                direction: args.angular_tolerance * 1e-6,
-                ..Default::default()
-            }),
-        ..Options::default()
-    };
-    let comp = Compensator::new(&machine, &errors, options)?;
+    let comp = Compensator::new(&machine, &errors, args.pass.options()?)?;
     let mut out = Vec::with_capacity(src.len() + src.len() / 8);
     let summary = comp.run(&src, &name, &mut out)?;
-    match &args.output {
-        Some(path) if !is_std(&args.output) => write_atomically(path, &out)?,
+    let mut status = Status::Clean;
+    match (&args.expected, &args.output) {
+        (Some(expected), _) => {
+            let (committed, expected_name) = read_file(expected)?;
+            if let Some(diff) = nccomp::check::stale::compare(&expected_name, &committed, &out) {
+                print(&diff)?;
+                status = Status::Findings;
+            }
+        }
+        (None, Some(path)) if !is_std(&args.output) => write_atomically(path, &out)?,
         _ => {
             let mut stdout = std::io::stdout().lock();
             stdout
@@ -552,7 +598,54 @@ fn compensate(args: &CompensateArgs) -> nccomp::Result<()> {
     if !args.quiet {
         eprintln!("{name}: {summary}");
     }
-    Ok(())
+    Ok(status)
+}
+
+impl PassArgs {
+    fn options(&self) -> nccomp::Result<Options> {
+        let v = self.angular_tolerance;
+        if !(v.is_finite() && v > 0.0) {
+            return Err(nccomp::Error::Usage(format!(
+                "--angular-tolerance {v}: expected a positive number of µrad"
+            )));
+        }
+        Ok(Options {
+            tool_chain: self.tool_chain.clone(),
+            allow_limit_violations: self.allow_limit_violations,
+            hold: self.hold.clone(),
+            path: self
+                .tolerance
+                .0
+                .map(|mm| nccomp::kinematics::path::PathTolerance {
+                    position: mm,
+                    direction: v * 1e-6,
+                    ..Default::default()
+                }),
+            ..Options::default()
+        })
+    }
+}
+
+fn check(args: &CheckArgs) -> nccomp::Result<Status> {
+    let thresholds = Thresholds::new(args.max_error, args.max_angle)?;
+    let machine = machine_file::load(&args.pass.machine)?;
+    let errors = error_file::load(&args.pass.errors, &machine)?;
+    let checker = Checker::new(&machine, &errors, args.pass.options()?, thresholds)?;
+    let paths = nccomp::check::expand(&args.programs)?;
+    let bar = nccomp::check::progress_bar(paths.len());
+    let programs = checker.files(&paths, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let run = nccomp::check::Run {
+        machine: args.pass.machine.display().to_string(),
+        errors: args.pass.errors.display().to_string(),
+        thresholds,
+        programs,
+    };
+    print(&match args.format {
+        CheckFormat::Human => run.human(use_color(&std::io::stdout())),
+        CheckFormat::Json => run.json(),
+    })?;
+    Ok(run.status())
 }
 
 fn report(args: &ReportArgs) -> nccomp::Result<()> {

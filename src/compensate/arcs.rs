@@ -397,7 +397,8 @@ impl Compensator<'_> {
                                 "{what} axis {} to {x:.4}, outside its travel {lo} … {hi} (use --allow-limit-violations to write it anyway)",
                                 self.axis_name(v)
                             ),
-                        ));
+                        )
+                        .with_code(super::TRAVEL_LIMIT));
                     }
                 }
             }

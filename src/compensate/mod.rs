@@ -28,6 +28,11 @@ use exact::Position;
 use gcodes::GCode;
 use words::{BlockMotion, MoveKind};
 
+/// The code of diagnostics about travel limits ([`Diagnostic::code`]): a block refused
+/// because it would leave an axis's travel, or (with `allow_limit_violations`) a
+/// violation written anyway.
+pub const TRAVEL_LIMIT: &str = "travel_limit";
+
 /// Millimetres per inch.
 const INCH: f64 = 25.4;
 
@@ -223,22 +228,36 @@ impl<'m> Compensator<'m> {
     /// Compensate the program `src` (named `path` in messages), appending the result to
     /// `out`.
     pub fn run(&self, src: &[u8], path: &str, out: &mut Vec<u8>) -> crate::Result<Summary> {
-        self.run_with(src, path, out, false)
+        Self::refusing(self.run_all_with(src, path, out, false))
     }
 
     /// [`Self::run`], keeping what the model predicts at every compensated line in
     /// [`Summary::trace`] (for reports).
     pub fn run_traced(&self, src: &[u8], path: &str, out: &mut Vec<u8>) -> crate::Result<Summary> {
-        self.run_with(src, path, out, true)
+        Self::refusing(self.run_all_with(src, path, out, true))
     }
 
-    fn run_with(
+    /// [`Compensator::run`] that keeps going past refused blocks: the summary of the
+    /// blocks that were compensated and the refused ones (at most `Options::max_errors`;
+    /// the pass stops at that many). `out` is complete only when none was refused.
+    pub fn run_all(&self, src: &[u8], path: &str, out: &mut Vec<u8>) -> (Summary, Vec<Diagnostic>) {
+        self.run_all_with(src, path, out, false)
+    }
+
+    fn refusing((summary, refused): (Summary, Vec<Diagnostic>)) -> crate::Result<Summary> {
+        if !refused.is_empty() {
+            return Err(Error::Inputs(refused));
+        }
+        Ok(summary)
+    }
+
+    fn run_all_with(
         &self,
         src: &[u8],
         path: &str,
         out: &mut Vec<u8>,
         trace: bool,
-    ) -> crate::Result<Summary> {
+    ) -> (Summary, Vec<Diagnostic>) {
         let mut summary = Summary {
             zero_model: self.zero_model,
             trace: trace.then(Vec::new),
@@ -248,7 +267,7 @@ impl<'m> Compensator<'m> {
             // Nothing can change: the program passes byte for byte, whatever it holds.
             out.extend_from_slice(src);
             summary.lines = nc::lines(src).count();
-            return Ok(summary);
+            return (summary, Vec::new());
         }
         let n = self.kin.len();
         let mut state = State {
@@ -324,10 +343,7 @@ impl<'m> Compensator<'m> {
             }
             nc::emit_line(&line, &mut edits, out);
         }
-        if !errors.is_empty() {
-            return Err(Error::Inputs(errors));
-        }
-        Ok(summary)
+        (summary, errors)
     }
 
     fn res_decimals(&self, var: usize, inch: bool) -> u8 {
@@ -479,7 +495,8 @@ impl<'m> Compensator<'m> {
                         self.axis_name(v),
                         state.nominal[v]
                     ),
-                ));
+                )
+                .with_code(TRAVEL_LIMIT));
             }
         }
         if state.unknown != 0 {
@@ -559,7 +576,8 @@ impl<'m> Compensator<'m> {
                     self.axis_name(v),
                     sol.position_residual
                 ),
-            ));
+            )
+            .with_code(TRAVEL_LIMIT));
         }
         summary.motion_blocks += 1;
         // Guard against a model or pose that turns microns into a big move.
@@ -648,12 +666,13 @@ impl<'m> Compensator<'m> {
                     if self.options.allow_limit_violations {
                         summary
                             .limit_violations
-                            .push(format!("line {}: {message}", line.number));
+                            .push(at(col, message).with_code(TRAVEL_LIMIT));
                     } else {
                         return Err(at(
                             col,
                             format!("{message} (use --allow-limit-violations to write it anyway)"),
-                        ));
+                        )
+                        .with_code(TRAVEL_LIMIT));
                     }
                 }
             }

@@ -1,5 +1,6 @@
 //! What a compensation run did and what the model predicts, for the user.
 
+use crate::diag::Diagnostic;
 use std::fmt;
 
 /// The largest value of something and the line where it occurred.
@@ -48,6 +49,10 @@ pub struct Summary {
     /// Largest predicted tip error (mm) and direction error (rad) without compensation...
     pub before_position: Extreme,
     pub before_direction: Extreme,
+    /// Sums of the same over every recorded pose, and how many there were (for means).
+    pub before_position_sum: f64,
+    pub before_direction_sum: f64,
+    pub poses: usize,
     /// ... and with the compensated (rounded) axis values.
     pub after_position: Extreme,
     pub after_direction: Extreme,
@@ -80,7 +85,7 @@ pub struct Summary {
     pub arcs: usize,
     pub arc_blocks_added: usize,
     /// Travel-limit violations written anyway (--allow-limit-violations).
-    pub limit_violations: Vec<String>,
+    pub limit_violations: Vec<Diagnostic>,
     /// Blocks that move but were written unchanged because an axis was at a position
     /// whose program coordinate is not known (after G28, G30 or G53), the first of them,
     /// and the axes that were unknown in them.
@@ -109,6 +114,9 @@ impl Summary {
     ) {
         self.before_position.update(before_p, line);
         self.before_direction.update(before_d, line);
+        self.before_position_sum += before_p;
+        self.before_direction_sum += before_d;
+        self.poses += 1;
         self.after_position.update(after_p, line);
         if singular {
             self.singular_blocks += 1;
@@ -140,6 +148,107 @@ impl Summary {
             }
             self.beyond_table_blocks += 1;
         }
+    }
+
+    /// Mean predicted tip error (mm) and direction error (rad) without compensation, over
+    /// the poses the pass evaluated (0 when there were none).
+    pub fn before_means(&self) -> (f64, f64) {
+        if self.poses == 0 {
+            return (0.0, 0.0);
+        }
+        let n = self.poses as f64;
+        (self.before_position_sum / n, self.before_direction_sum / n)
+    }
+
+    /// The summary's lines after the predicted errors, as [`fmt::Display`] shows them:
+    /// singular poses, split moves and arcs, then the `note: ` lines (not the warnings).
+    pub fn remarks(&self) -> Vec<String> {
+        let urad = |e: Extreme| {
+            if e.line == 0 {
+                format!("{:.2} µrad", e.value * 1e6)
+            } else {
+                format!("{:.2} µrad (line {})", e.value * 1e6, e.line)
+            }
+        };
+        let mut out = Vec::new();
+        if self.singular_blocks > 0 {
+            out.push(format!(
+                "{} at singular poses (tool along axis {}): the axis was held at its programmed value; direction error left there up to {}",
+                count(self.singular_blocks, "block"),
+                self.held_axes.join(", "),
+                urad(self.singular_direction)
+            ));
+        }
+        if self.moves_split > 0 {
+            out.push(format!(
+                "{} split to stay on the nominal path (first at line {}): {} added",
+                count(self.moves_split, "move"),
+                self.first_split,
+                count(self.blocks_added, "block")
+            ));
+        }
+        if self.arcs_kept > 0 {
+            out.push(format!(
+                "{} kept as arcs (compensated end and centre stay within the path tolerance)",
+                count(self.arcs_kept, "arc"),
+            ));
+        }
+        if self.arcs > 0 {
+            out.push(format!(
+                "{} replaced by straight pieces within 0.5 µm of the arc: {} added",
+                count(self.arcs, "arc"),
+                count(self.arc_blocks_added, "block")
+            ));
+        }
+        if self.unsplit_moves > 0 {
+            out.push(format!(
+                "note: {} kept whole although the path strays (M or T words, or G93 without F; first at line {})",
+                count(self.unsplit_moves, "move"),
+                self.first_unsplit
+            ));
+        }
+        for (axis, blocks, line) in &self.at_limit {
+            out.push(format!(
+                "note: in {} (first at line {line}) the correction would have pushed axis {axis} past its travel limit; it was held at its programmed value",
+                count(*blocks, "block")
+            ));
+        }
+        if self.beyond_table_blocks > 0 {
+            out.push(format!(
+                "note: error tables were read beyond their ends in {} (first at line {}); the end values were used",
+                count(self.beyond_table_blocks, "block"),
+                self.first_beyond_table
+            ));
+        }
+        if self.uncompensated_blocks > 0 {
+            let (noun, verb, pronoun) = if self.unknown_axes.len() == 1 {
+                ("axis", "was", "it")
+            } else {
+                ("axes", "were", "them")
+            };
+            out.push(format!(
+                "note: {} (first at line {}) {} written uncompensated: {noun} {} {verb} at a position nccomp does not know (after G28, G30 or G53) until a G90 block programmed {pronoun}",
+                count(self.uncompensated_blocks, "block"),
+                self.first_uncompensated,
+                if self.uncompensated_blocks == 1 {
+                    "was"
+                } else {
+                    "were"
+                },
+                self.unknown_axes.join(", ")
+            ));
+        }
+        for (axis, line) in &self.incremental_from_home {
+            out.push(format!(
+                "note: axis {axis} was moved incrementally (G91) at line {line} before the program set it; its home value 0 was taken as the start"
+            ));
+        }
+        for (axis, line) in &self.assumed_home {
+            out.push(format!(
+                "note: axis {axis} was corrected at line {line} before the program set it; its home value 0 was assumed"
+            ));
+        }
+        out
     }
 
     pub(crate) fn note_assumed_home(&mut self, axis: &str, line: usize) {
@@ -251,95 +360,11 @@ impl fmt::Display for Summary {
             urad(self.before_direction),
             urad(self.after_direction)
         )?;
-        if self.singular_blocks > 0 {
-            write!(
-                f,
-                "\n{} at singular poses (tool along axis {}): the axis was held at its programmed value; direction error left there up to {}",
-                count(self.singular_blocks, "block"),
-                self.held_axes.join(", "),
-                urad(self.singular_direction)
-            )?;
-        }
-        if self.moves_split > 0 {
-            write!(
-                f,
-                "\n{} split to stay on the nominal path (first at line {}): {} added",
-                count(self.moves_split, "move"),
-                self.first_split,
-                count(self.blocks_added, "block")
-            )?;
-        }
-        if self.arcs_kept > 0 {
-            write!(
-                f,
-                "\n{} kept as arcs (compensated end and centre stay within the path tolerance)",
-                count(self.arcs_kept, "arc"),
-            )?;
-        }
-        if self.arcs > 0 {
-            write!(
-                f,
-                "\n{} replaced by straight pieces within 0.5 µm of the arc: {} added",
-                count(self.arcs, "arc"),
-                count(self.arc_blocks_added, "block")
-            )?;
-        }
-        if self.unsplit_moves > 0 {
-            write!(
-                f,
-                "\nnote: {} kept whole although the path strays (M or T words, or G93 without F; first at line {})",
-                count(self.unsplit_moves, "move"),
-                self.first_unsplit
-            )?;
-        }
-        for (axis, blocks, line) in &self.at_limit {
-            write!(
-                f,
-                "\nnote: in {} (first at line {line}) the correction would have pushed axis {axis} past its travel limit; it was held at its programmed value",
-                count(*blocks, "block")
-            )?;
-        }
-        if self.beyond_table_blocks > 0 {
-            write!(
-                f,
-                "\nnote: error tables were read beyond their ends in {} (first at line {}); the end values were used",
-                count(self.beyond_table_blocks, "block"),
-                self.first_beyond_table
-            )?;
-        }
-        if self.uncompensated_blocks > 0 {
-            let (noun, verb, pronoun) = if self.unknown_axes.len() == 1 {
-                ("axis", "was", "it")
-            } else {
-                ("axes", "were", "them")
-            };
-            write!(
-                f,
-                "\nnote: {} (first at line {}) {} written uncompensated: {noun} {} {verb} at a position nccomp does not know (after G28, G30 or G53) until a G90 block programmed {pronoun}",
-                count(self.uncompensated_blocks, "block"),
-                self.first_uncompensated,
-                if self.uncompensated_blocks == 1 {
-                    "was"
-                } else {
-                    "were"
-                },
-                self.unknown_axes.join(", ")
-            )?;
-        }
-        for (axis, line) in &self.incremental_from_home {
-            write!(
-                f,
-                "\nnote: axis {axis} was moved incrementally (G91) at line {line} before the program set it; its home value 0 was taken as the start"
-            )?;
-        }
-        for (axis, line) in &self.assumed_home {
-            write!(
-                f,
-                "\nnote: axis {axis} was corrected at line {line} before the program set it; its home value 0 was assumed"
-            )?;
+        for remark in self.remarks() {
+            write!(f, "\n{remark}")?;
         }
         for v in &self.limit_violations {
-            write!(f, "\nwarning: {v}")?;
+            write!(f, "\nwarning: line {}: {}", v.line, v.message)?;
         }
         Ok(())
     }

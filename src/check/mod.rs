@@ -1,0 +1,471 @@
+//! `nccomp check`: what the model predicts for programs and whether compensation can fix
+//! it, as a gate for CI.
+//!
+//! A check is the compensation pass ([`crate::compensate`]) run on each program with its
+//! output thrown away: the pass's summary holds the predicted errors before and after
+//! compensation, its refused blocks are the blocks that cannot be compensated. Nothing
+//! here evaluates the kinematics itself. Thresholds turn what the pass found into
+//! failures ([`Finding`]); programs are checked in parallel.
+
+mod expand;
+mod progress;
+mod report;
+pub mod stale;
+
+pub use expand::expand;
+pub use progress::progress_bar;
+
+use crate::compensate::{Compensator, Extreme, Options, Summary, TRAVEL_LIMIT};
+use crate::diag::{Diagnostic, Error};
+use crate::model::{ErrorModel, Machine};
+use crate::nc::{self, TokenKind};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// Exit status of a run: 0 clean, 1 findings, 2 unusable input (the same codes as every
+/// nccomp command: 2 is also a bad option, machine or error file).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    Clean,
+    Findings,
+    Unusable,
+}
+
+impl Status {
+    pub fn exit_code(self) -> u8 {
+        match self {
+            Status::Clean => 0,
+            Status::Findings => 1,
+            Status::Unusable => 2,
+        }
+    }
+}
+
+/// What turns a prediction into a failure.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Thresholds {
+    /// Largest predicted tip error after compensation, mm.
+    pub max_error_mm: f64,
+    /// Largest predicted tool direction error after compensation, µrad; `None`: the
+    /// direction error is reported, not judged.
+    pub max_angle_urad: Option<f64>,
+}
+
+impl Default for Thresholds {
+    fn default() -> Self {
+        Thresholds {
+            max_error_mm: 0.010,
+            max_angle_urad: None,
+        }
+    }
+}
+
+impl Thresholds {
+    /// The thresholds, if both are positive numbers.
+    pub fn new(max_error_mm: f64, max_angle_urad: Option<f64>) -> crate::Result<Self> {
+        for (name, v, unit) in [
+            ("--max-error", Some(max_error_mm), "mm"),
+            ("--max-angle", max_angle_urad, "µrad"),
+        ] {
+            let Some(v) = v else { continue };
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::Usage(format!(
+                    "{name} {v}: expected a positive number ({unit})"
+                )));
+            }
+        }
+        Ok(Thresholds {
+            max_error_mm,
+            max_angle_urad,
+        })
+    }
+}
+
+/// What a finding is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FindingKind {
+    /// A block the pass refuses (unsupported construct, correction too large, ...).
+    Refused,
+    /// A block that leaves an axis's travel (refused, or written anyway with
+    /// `--allow-limit-violations`).
+    TravelLimit,
+    /// The predicted tip error after compensation is above `--max-error`.
+    TipError,
+    /// The predicted direction error after compensation is above `--max-angle`.
+    DirectionError,
+}
+
+/// A failure at a place in a program.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Finding {
+    pub kind: FindingKind,
+    #[serde(flatten)]
+    pub at: Place,
+}
+
+/// A located message, as the JSON output shows it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Place {
+    pub path: String,
+    pub line: usize,
+    pub column: usize,
+    pub message: String,
+    pub source_line: String,
+}
+
+impl From<&Diagnostic> for Place {
+    fn from(d: &Diagnostic) -> Self {
+        Place {
+            path: d.path.clone(),
+            line: d.line,
+            column: d.column,
+            message: d.message.clone(),
+            source_line: d.source_line.clone(),
+        }
+    }
+}
+
+impl Finding {
+    /// The finding as a diagnostic, its kind as the code (`error[tip_error]`).
+    pub fn diagnostic(&self) -> Diagnostic {
+        Diagnostic {
+            path: self.at.path.clone(),
+            line: self.at.line,
+            column: self.at.column,
+            message: self.at.message.clone(),
+            source_line: self.at.source_line.clone(),
+            code: Some(self.kind.code()),
+        }
+    }
+}
+
+impl FindingKind {
+    /// The name the JSON output gives the kind.
+    pub fn code(self) -> &'static str {
+        match self {
+            FindingKind::Refused => "refused",
+            FindingKind::TravelLimit => TRAVEL_LIMIT,
+            FindingKind::TipError => "tip_error",
+            FindingKind::DirectionError => "direction_error",
+        }
+    }
+}
+
+/// The largest value of an error over a program, where it is, and (before compensation)
+/// its mean over every pose.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Peak {
+    pub max: f64,
+    /// 1-based line of the largest value; `None` when no pose was evaluated.
+    pub line: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mean: Option<f64>,
+}
+
+impl Peak {
+    fn new(e: Extreme, scale: f64, mean: Option<f64>) -> Self {
+        Peak {
+            max: e.value * scale,
+            line: (e.line > 0).then_some(e.line),
+            mean: mean.map(|m| m * scale),
+        }
+    }
+}
+
+/// Predicted tip (mm) and tool direction (µrad) errors.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Errors {
+    pub tip_mm: Peak,
+    pub direction_urad: Peak,
+}
+
+/// The check of one program.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ProgramCheck {
+    pub path: String,
+    pub status: Status,
+    /// Why the program could not be checked (status `unusable`).
+    pub error: Option<String>,
+    pub lines: usize,
+    pub motion_blocks: usize,
+    /// Predicted errors if the program ran as it is...
+    pub before: Option<Errors>,
+    /// ... and after compensation (rounded as written; singular poses included).
+    pub after: Option<Errors>,
+    /// No block was refused and every compensated pose is within the thresholds.
+    pub lands_every_pose: Option<bool>,
+    pub singular_blocks: usize,
+    /// Blocks written uncompensated because an axis was at an unknown position (after
+    /// G28, G30 or G53).
+    pub uncompensated_blocks: usize,
+    pub findings: Vec<Finding>,
+    /// What is worth knowing but is no failure (the compensation summary's notes).
+    pub notes: Vec<String>,
+    /// The pass stopped at its limit of refused blocks; later blocks were not checked.
+    pub stopped_early: bool,
+}
+
+impl ProgramCheck {
+    fn unusable(path: &str, error: &Error) -> Self {
+        ProgramCheck {
+            path: path.to_string(),
+            status: Status::Unusable,
+            error: Some(error.to_string()),
+            lines: 0,
+            motion_blocks: 0,
+            before: None,
+            after: None,
+            lands_every_pose: None,
+            singular_blocks: 0,
+            uncompensated_blocks: 0,
+            findings: Vec::new(),
+            notes: Vec::new(),
+            stopped_early: false,
+        }
+    }
+}
+
+/// Checks programs against one machine, error model and set of options.
+pub struct Checker<'m> {
+    comp: Compensator<'m>,
+    /// Program letters of the active axes (to point at a block's axis words).
+    letters: Vec<u8>,
+    thresholds: Thresholds,
+    max_refused: usize,
+}
+
+impl<'m> Checker<'m> {
+    /// `options` are the compensation options the programs will be compensated with.
+    pub fn new(
+        machine: &'m Machine,
+        errors: &ErrorModel,
+        options: Options,
+        thresholds: Thresholds,
+    ) -> crate::Result<Self> {
+        let max_refused = options.max_errors;
+        let comp = Compensator::new(machine, errors, options)?;
+        let letters = comp
+            .kinematics()
+            .axes()
+            .iter()
+            .map(|&i| machine.axes[i].word.to_ascii_uppercase() as u8)
+            .collect();
+        Ok(Checker {
+            comp,
+            letters,
+            thresholds,
+            max_refused,
+        })
+    }
+
+    pub fn thresholds(&self) -> Thresholds {
+        self.thresholds
+    }
+
+    /// Check the program `src`, named `path` in messages.
+    pub fn program(&self, src: &[u8], path: &str) -> ProgramCheck {
+        let mut out = Vec::with_capacity(src.len() + src.len() / 8);
+        let (summary, refused) = self.comp.run_all(src, path, &mut out);
+        let t = self.thresholds;
+        let mut findings: Vec<Finding> = refused
+            .iter()
+            .map(|d| Finding {
+                kind: if d.code == Some(TRAVEL_LIMIT) {
+                    FindingKind::TravelLimit
+                } else {
+                    FindingKind::Refused
+                },
+                at: d.into(),
+            })
+            .collect();
+        findings.extend(summary.limit_violations.iter().map(|d| Finding {
+            kind: FindingKind::TravelLimit,
+            at: d.into(),
+        }));
+        let (mean_p, mean_d) = summary.before_means();
+        let before = Errors {
+            tip_mm: Peak::new(summary.before_position, 1.0, Some(mean_p)),
+            direction_urad: Peak::new(summary.before_direction, 1e6, Some(mean_d)),
+        };
+        // Singular poses keep a direction error the pass cannot remove: it counts.
+        let after_direction = if summary.singular_direction.value > summary.after_direction.value {
+            summary.singular_direction
+        } else {
+            summary.after_direction
+        };
+        let after = Errors {
+            tip_mm: Peak::new(summary.after_position, 1.0, None),
+            direction_urad: Peak::new(after_direction, 1e6, None),
+        };
+        let mut within = true;
+        if let (true, Some(line)) = (after.tip_mm.max > t.max_error_mm, after.tip_mm.line) {
+            within = false;
+            findings.push(self.at_line(
+                FindingKind::TipError,
+                src,
+                path,
+                line,
+                format!(
+                    "the predicted tip error after compensation is {:.3} µm, above --max-error {} mm",
+                    after.tip_mm.max * 1e3,
+                    t.max_error_mm
+                ),
+            ));
+        }
+        if let (Some(max_angle), Some(line)) = (t.max_angle_urad, after.direction_urad.line)
+            && after.direction_urad.max > max_angle
+        {
+            within = false;
+            let why = if summary.singular_direction == after_direction {
+                " (a singular pose: the rotary axis along the tool is held)"
+            } else {
+                ""
+            };
+            findings.push(self.at_line(
+                FindingKind::DirectionError,
+                src,
+                path,
+                line,
+                format!(
+                    "the predicted tool direction error after compensation is {:.2} µrad{why}, above --max-angle {} µrad",
+                    after.direction_urad.max, max_angle
+                ),
+            ));
+        }
+        findings.sort_by_key(|f| (f.at.line, f.at.column));
+        let notes = notes(&summary, &before, &t);
+        ProgramCheck {
+            path: path.to_string(),
+            status: if findings.is_empty() {
+                Status::Clean
+            } else {
+                Status::Findings
+            },
+            error: None,
+            lines: summary.lines,
+            motion_blocks: summary.motion_blocks,
+            before: Some(before),
+            after: Some(after),
+            lands_every_pose: Some(refused.is_empty() && within),
+            singular_blocks: summary.singular_blocks,
+            uncompensated_blocks: summary.uncompensated_blocks,
+            findings,
+            notes,
+            stopped_early: refused.len() >= self.max_refused,
+        }
+    }
+
+    /// Check the program in the file at `path` (unusable if it cannot be read).
+    pub fn file(&self, path: &Path) -> ProgramCheck {
+        let name = path.display().to_string();
+        match std::fs::read(path) {
+            Ok(src) => self.program(&src, &name),
+            Err(e) => ProgramCheck::unusable(&name, &Error::io(path, e)),
+        }
+    }
+
+    /// Check every file, in parallel (rayon's pool: `RAYON_NUM_THREADS` threads, one per
+    /// core by default), calling `done` as each finishes. The result is in the order of
+    /// `paths`.
+    pub fn files(&self, paths: &[PathBuf], done: &(dyn Fn() + Sync)) -> Vec<ProgramCheck> {
+        paths
+            .par_iter()
+            .map(|p| {
+                let check = self.file(p);
+                done();
+                check
+            })
+            .collect()
+    }
+
+    /// A finding at `line`, pointing at the block's first axis word (or its start).
+    fn at_line(
+        &self,
+        kind: FindingKind,
+        src: &[u8],
+        path: &str,
+        line: usize,
+        message: String,
+    ) -> Finding {
+        let offset = nc::lines(src).nth(line - 1).map_or(src.len(), |l| {
+            let mut tokens = Vec::new();
+            nc::parse_line(l.content, &mut tokens);
+            let first_axis = tokens.iter().find_map(|t| match &t.kind {
+                TokenKind::Word(w) if self.letters.contains(&w.letter) => Some(t.span.start),
+                _ => None,
+            });
+            let first_word = tokens.iter().find_map(|t| match &t.kind {
+                TokenKind::Word(_) => Some(t.span.start),
+                _ => None,
+            });
+            l.offset + first_axis.or(first_word).unwrap_or(0)
+        });
+        Finding {
+            kind,
+            at: (&Diagnostic::at(path, src, offset, message)).into(),
+        }
+    }
+}
+
+/// The summary's notes, and whether the program needs compensation at all.
+fn notes(summary: &Summary, before: &Errors, t: &Thresholds) -> Vec<String> {
+    if summary.zero_model {
+        return vec![
+            "the error model is zero: the program passes unchanged and nothing was checked".into(),
+        ];
+    }
+    let mut notes = Vec::new();
+    if summary.motion_blocks == 0 && summary.uncompensated_blocks == 0 {
+        notes.push("no block moves an axis: nothing to compensate".into());
+    }
+    let over_tip = before.tip_mm.max > t.max_error_mm;
+    let over_dir = t
+        .max_angle_urad
+        .is_some_and(|m| before.direction_urad.max > m);
+    if over_tip || over_dir {
+        notes.push(format!(
+            "run uncompensated, the program would be outside the thresholds (predicted {}): it needs compensation",
+            [
+                over_tip.then(|| format!("tip error {:.3} µm", before.tip_mm.max * 1e3)),
+                over_dir.then(|| format!(
+                    "direction error {:.2} µrad",
+                    before.direction_urad.max
+                )),
+            ]
+            .into_iter()
+            .flatten()
+            .collect::<Vec<_>>()
+            .join(", ")
+        ));
+    }
+    notes.extend(
+        summary
+            .remarks()
+            .into_iter()
+            .map(|r| r.strip_prefix("note: ").map_or(r.clone(), str::to_string)),
+    );
+    notes
+}
+
+/// Every program's check and the run's status.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Run {
+    pub machine: String,
+    pub errors: String,
+    pub thresholds: Thresholds,
+    pub programs: Vec<ProgramCheck>,
+}
+
+impl Run {
+    /// The worst status of any program (clean for none).
+    pub fn status(&self) -> Status {
+        self.programs
+            .iter()
+            .map(|p| p.status)
+            .max()
+            .unwrap_or(Status::Clean)
+    }
+}

@@ -1,0 +1,463 @@
+//! `nccomp check` and `nccomp compensate --check` as a CI job runs them: exit codes 0, 1
+//! and 2 in both formats, the JSON against its published schema, and a stale committed
+//! output caught by one digit.
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const M: &str = "fixtures/ac_trunnion.machine.toml";
+const E: &str = "fixtures/ac_trunnion.errors.toml";
+
+fn nccomp(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_nccomp"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env_remove("NO_COLOR")
+        .output()
+        .unwrap()
+}
+
+fn check(extra: &[&str]) -> Output {
+    let mut args = vec!["check", "-m", M, "-e", E];
+    args.extend_from_slice(extra);
+    nccomp(&args)
+}
+
+fn stdout(out: &Output) -> String {
+    String::from_utf8(out.stdout.clone()).unwrap()
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("nccomp-check-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A program with a canned cycle (refused) and a move below Z's travel (-100 … 400).
+const BAD: &str = "G90 G0 X0 Y0 Z50 A-20 C0\nG1 X100 Y100 Z20 A-20 C30 F500\nG81 X10 Y10 Z-5 R2 F100\nG1 X-40 Y-40 Z-250 A-20 C0\nM30\n";
+
+fn bad_program(dir: &Path) -> String {
+    let path = dir.join("bad.nc");
+    std::fs::write(&path, BAD).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+/// The JSON output, checked against docs/check.schema.json.
+fn valid_json(out: &Output) -> Value {
+    let schema: Value = serde_json::from_str(
+        &std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/check.schema.json"),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    jsonschema::meta::validate(&schema).unwrap();
+    let validator = jsonschema::validator_for(&schema).unwrap();
+    let doc: Value = serde_json::from_str(&stdout(out)).unwrap();
+    let errors: Vec<String> = validator
+        .iter_errors(&doc)
+        .map(|e| format!("{} at {}", e, e.instance_path()))
+        .collect();
+    assert!(errors.is_empty(), "{errors:#?}\n{doc:#}");
+    // The validator does judge: a document with a status the schema does not know fails.
+    let mut wrong = doc.clone();
+    wrong["programs"][0]["status"] = "fine".into();
+    assert!(!validator.is_valid(&wrong));
+    doc
+}
+
+/// The line of `compensate`'s summary that starts with `label`.
+fn summary_line(program: &str, label: &str) -> String {
+    let out = nccomp(&["compensate", "-m", M, "-e", E, program, "-o", "-"]);
+    assert!(out.status.success());
+    stderr(&out)
+        .lines()
+        .find(|l| l.starts_with(label))
+        .unwrap()
+        .to_string()
+}
+
+#[test]
+fn exit_0_human_every_program_is_clean_and_stderr_stays_silent() {
+    let out = check(&["fixtures/ac_trunnion_*.nc", "fixtures/feature_workpiece.nc"]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    // No progress bar and no colour without a terminal.
+    assert_eq!(stderr(&out), "");
+    let text = stdout(&out);
+    assert!(!text.contains('\x1b'), "{text}");
+    // The pattern is expanded by nccomp, sorted; the path after it keeps its place.
+    let headers: Vec<&str> = text.lines().filter(|l| l.ends_with(": clean")).collect();
+    assert_eq!(
+        headers,
+        [
+            "fixtures/ac_trunnion_g28_g53.nc: clean",
+            "fixtures/ac_trunnion_g91.nc: clean",
+            "fixtures/ac_trunnion_tcp.nc: clean",
+            "fixtures/feature_workpiece.nc: clean",
+        ]
+    );
+    assert!(
+        text.ends_with(
+            "checked 4 programs against fixtures/ac_trunnion.machine.toml and fixtures/ac_trunnion.errors.toml: 4 clean, 0 with findings, 0 unusable (--max-error 0.01 mm)\n"
+        ),
+        "{text}"
+    );
+    // The predictions are the compensation pass's own: the same figures as its summary.
+    let tip = summary_line("fixtures/feature_workpiece.nc", "predicted tip error:");
+    let before = tip
+        .split("before ")
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap();
+    let after = tip.split("after ").nth(1).unwrap();
+    assert!(
+        text.contains(&format!(
+            "  before compensation: tip error up to {before}, mean "
+        )),
+        "{before}\n{text}"
+    );
+    assert!(
+        text.contains(&format!("  after compensation:  tip error up to {after}")),
+        "{after}\n{text}"
+    );
+    assert!(text.contains("compensation lands every pose within the thresholds"));
+}
+
+#[test]
+fn exit_0_json_matches_the_schema_and_the_summary() {
+    let out = check(&["--format", "json", "fixtures/feature_workpiece.nc"]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert_eq!(stderr(&out), "");
+    let doc = valid_json(&out);
+    assert_eq!(doc["status"], "clean");
+    assert_eq!(doc["exit_code"], 0);
+    assert_eq!(doc["thresholds"]["max_error_mm"], 0.01);
+    assert_eq!(doc["thresholds"]["max_angle_urad"], Value::Null);
+    let p = &doc["programs"][0];
+    assert_eq!(p["lands_every_pose"], true);
+    assert_eq!(p["lines"], 725);
+    // Largest, mean and where, as compensate's summary states them (µm with 3 decimals).
+    let tip = summary_line("fixtures/feature_workpiece.nc", "predicted tip error:");
+    let before = &p["before"]["tip_mm"];
+    let shown = format!(
+        "before {:.3} µm (line {})",
+        before["max"].as_f64().unwrap() * 1e3,
+        before["line"]
+    );
+    assert!(tip.contains(&shown), "{tip} / {shown}");
+    let mean = before["mean"].as_f64().unwrap();
+    assert!(mean > 0.0 && mean < before["max"].as_f64().unwrap());
+    let after = p["after"]["tip_mm"]["max"].as_f64().unwrap();
+    assert!(after < 1e-3, "{after}");
+}
+
+#[test]
+fn exit_1_human_points_at_the_offending_words() {
+    let dir = scratch("h1");
+    let bad = bad_program(&dir);
+    let out = check(&[&bad]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert_eq!(stderr(&out), "");
+    let text = stdout(&out);
+    assert!(text.starts_with(&format!("{bad}: 2 findings\n")), "{text}");
+    assert!(
+        text.contains("  compensation does not land every pose\n"),
+        "{text}"
+    );
+    let refused = format!(
+        "error[refused]: G81 cannot be compensated: a canned cycle is not supported\n --> {bad}:3:1\n  |\n3 | G81 X10 Y10 Z-5 R2 F100\n  | ^^^\n"
+    );
+    assert!(text.contains(&refused), "{text}");
+    let travel = format!(
+        "error[travel_limit]: axis Z is programmed to -250.0000, outside its travel -100 … 400 (use --allow-limit-violations to compensate it anyway)\n --> {bad}:4:14\n  |\n4 | G1 X-40 Y-40 Z-250 A-20 C0\n  |              ^^^^^\n"
+    );
+    assert!(text.contains(&travel), "{text}");
+    assert!(
+        text.contains(": 0 clean, 1 with findings, 0 unusable"),
+        "{text}"
+    );
+}
+
+#[test]
+fn exit_1_json_lists_every_kind_of_finding() {
+    let dir = scratch("j1");
+    let bad = bad_program(&dir);
+    // With --allow-limit-violations the travel violation is written and still a finding.
+    let out = check(&["--format", "json", "--allow-limit-violations", &bad]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let doc = valid_json(&out);
+    assert_eq!(
+        (&doc["status"], &doc["exit_code"]),
+        (&"findings".into(), &1.into())
+    );
+    let findings = doc["programs"][0]["findings"].as_array().unwrap();
+    let kinds: Vec<(&str, u64, u64)> = findings
+        .iter()
+        .map(|f| {
+            (
+                f["kind"].as_str().unwrap(),
+                f["line"].as_u64().unwrap(),
+                f["column"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(kinds, [("refused", 3, 1), ("travel_limit", 4, 14)]);
+    assert_eq!(findings[1]["source_line"], "G1 X-40 Y-40 Z-250 A-20 C0");
+
+    // Thresholds turn predictions into findings: a tip tolerance below what the rounded
+    // output reaches, and a direction tolerance below what singular poses keep.
+    let out = check(&[
+        "--format",
+        "json",
+        "--max-error",
+        "0.00001",
+        "--max-angle",
+        "100",
+        "fixtures/feature_workpiece.nc",
+    ]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let doc = valid_json(&out);
+    let p = &doc["programs"][0];
+    assert_eq!(p["lands_every_pose"], false);
+    let kinds: Vec<&str> = p["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["kind"].as_str().unwrap())
+        .collect();
+    assert_eq!(kinds.len(), 2, "{p:#}");
+    assert!(kinds.contains(&"tip_error") && kinds.contains(&"direction_error"));
+    // Each at the line where the error is largest.
+    for (kind, field) in [
+        ("tip_error", "tip_mm"),
+        ("direction_error", "direction_urad"),
+    ] {
+        let f = p["findings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|f| f["kind"] == kind)
+            .unwrap();
+        assert_eq!(f["line"], p["after"][field]["line"], "{kind}");
+    }
+}
+
+#[test]
+fn exit_2_when_a_program_cannot_be_read_the_others_are_still_reported() {
+    let out = check(&["fixtures/missing.nc", "fixtures/ac_trunnion_tcp.nc"]);
+    assert_eq!(out.status.code(), Some(2));
+    let text = stdout(&out);
+    assert!(
+        text.contains(
+            "fixtures/missing.nc: unusable\nerror: fixtures/missing.nc: No such file or directory"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains("fixtures/ac_trunnion_tcp.nc: clean"),
+        "{text}"
+    );
+    assert!(text.contains("1 unusable"), "{text}");
+
+    let out = check(&[
+        "--format",
+        "json",
+        "fixtures/missing.nc",
+        "fixtures/ac_trunnion_tcp.nc",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let doc = valid_json(&out);
+    assert_eq!(
+        (&doc["status"], &doc["exit_code"]),
+        (&"unusable".into(), &2.into())
+    );
+    assert_eq!(doc["totals"]["unusable"], 1);
+    assert_eq!(doc["programs"][0]["before"], Value::Null);
+    assert!(
+        doc["programs"][0]["error"]
+            .as_str()
+            .unwrap()
+            .contains("No such file")
+    );
+    assert_eq!(doc["programs"][1]["status"], "clean");
+}
+
+#[test]
+fn exit_2_for_unusable_options_and_files_before_any_report() {
+    let dir = scratch("u2");
+    let machine = dir.join("m.toml");
+    std::fs::write(
+        &machine,
+        "workpiece_chain = [\"Y\"]\ntool_chain = []\nspeed = 3\n",
+    )
+    .unwrap();
+    for (args, expected) in [
+        (
+            vec![
+                "check",
+                "-m",
+                machine.to_str().unwrap(),
+                "-e",
+                E,
+                "fixtures/feature_workpiece.nc",
+            ],
+            "error: ",
+        ),
+        (
+            vec![
+                "check",
+                "-m",
+                M,
+                "-e",
+                E,
+                "--max-error",
+                "0",
+                "fixtures/feature_workpiece.nc",
+            ],
+            "error: --max-error 0: expected a positive number (mm)\n",
+        ),
+        (
+            vec!["check", "-m", M, "-e", E, "fixtures/*.tap"],
+            "error: `fixtures/*.tap` matches no file\n",
+        ),
+        (
+            vec![
+                "check",
+                "-m",
+                M,
+                "-e",
+                E,
+                "--format",
+                "json",
+                "fixtures/*.tap",
+            ],
+            "error: `fixtures/*.tap` matches no file\n",
+        ),
+    ] {
+        let out = nccomp(&args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert_eq!(stdout(&out), "", "{args:?}");
+        assert!(
+            stderr(&out).starts_with(expected),
+            "{args:?}: {}",
+            stderr(&out)
+        );
+    }
+}
+
+#[test]
+fn no_color_and_pipes_get_plain_text() {
+    // stdout is a pipe here: whatever NO_COLOR says, no escape codes.
+    let dir = scratch("nc");
+    let bad = bad_program(&dir);
+    let out = Command::new(env!("CARGO_BIN_EXE_nccomp"))
+        .args(["check", "-m", M, "-e", E, &bad])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("NO_COLOR", "1")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(!stdout(&out).contains('\x1b'));
+}
+
+#[test]
+fn the_stale_check_catches_a_one_digit_change() {
+    let dir = scratch("stale");
+    let committed = dir.join("fw.comp.nc");
+    let program = "fixtures/feature_workpiece.nc";
+    let out = nccomp(&[
+        "compensate",
+        "-q",
+        "-m",
+        M,
+        "-e",
+        E,
+        program,
+        "-o",
+        committed.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let stale = |expected: &Path| {
+        nccomp(&[
+            "compensate",
+            "-q",
+            "-m",
+            M,
+            "-e",
+            E,
+            "--check",
+            program,
+            "--expected",
+            expected.to_str().unwrap(),
+        ])
+    };
+    // Up to date: exit 0, nothing printed, nothing written.
+    let out = stale(&committed);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert_eq!(stdout(&out), "");
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+
+    // One digit of one compensated word changed by hand.
+    let text = std::fs::read_to_string(&committed).unwrap();
+    let (number, line) = text
+        .lines()
+        .enumerate()
+        .find(|(_, l)| l.contains('X') && l.contains('.'))
+        .map(|(i, l)| (i + 1, l.to_string()))
+        .unwrap();
+    let digit = line.rfind(|c: char| c.is_ascii_digit()).unwrap();
+    let mut edited = line.clone();
+    let old = edited.as_bytes()[digit];
+    edited.replace_range(digit..=digit, if old == b'7' { "8" } else { "7" });
+    let changed = text.replacen(&format!("{line}\n"), &format!("{edited}\n"), 1);
+    assert_ne!(changed, text);
+    std::fs::write(&committed, &changed).unwrap();
+    let out = stale(&committed);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let diff = stdout(&out);
+    let name = committed.display();
+    assert!(
+        diff.starts_with(&format!(
+            "{name} is not what nccomp writes now (first difference at line {number}; 1 line removed, 1 added)\n"
+        )),
+        "{diff}"
+    );
+    assert!(
+        diff.contains(&format!(
+            "--- {name} (committed)\n+++ {name} (nccomp now)\n"
+        )),
+        "{diff}"
+    );
+    assert!(diff.contains(&format!("\n-{edited}\n+{line}\n")), "{diff}");
+    // The committed file is left as it was.
+    assert_eq!(std::fs::read_to_string(&committed).unwrap(), changed);
+
+    // A committed file that cannot be read is unusable input.
+    let out = stale(&dir.join("none.nc"));
+    assert_eq!(out.status.code(), Some(2));
+    // --check needs --expected and writes no output.
+    let out = nccomp(&["compensate", "-m", M, "-e", E, "--check", program]);
+    assert_eq!(out.status.code(), Some(2));
+    let out = nccomp(&[
+        "compensate",
+        "-m",
+        M,
+        "-e",
+        E,
+        "--check",
+        program,
+        "--expected",
+        committed.to_str().unwrap(),
+        "-o",
+        "x.nc",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+}
