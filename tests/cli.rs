@@ -158,6 +158,18 @@ fn fails(args: &[&str]) -> (i32, String) {
     (out.status.code().unwrap_or(-1), stderr(&out))
 }
 
+/// The place a rendered diagnostic names: `error: …` then ` --> file:line:column`.
+fn place(err: &str) -> (String, usize, usize) {
+    let at = err
+        .lines()
+        .find_map(|l| l.trim_start().strip_prefix("--> "))
+        .unwrap_or_else(|| panic!("no place in {err}"));
+    let mut parts = at.rsplitn(3, ':');
+    let column = parts.next().unwrap().parse().unwrap();
+    let line = parts.next().unwrap().parse().unwrap();
+    (parts.next().unwrap().to_string(), line, column)
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> String {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
@@ -196,19 +208,10 @@ fn bad_machine_files_name_file_line_and_column() {
             "fixtures/feature_workpiece.nc",
         ]);
         assert_eq!(code, 2, "{err}");
-        let prefix = format!("{path}:");
-        assert!(err.starts_with(&prefix), "case {i}: {err}");
-        // file:line:col:
-        let rest = &err[prefix.len()..];
-        let mut parts = rest.splitn(3, ':');
-        assert!(
-            parts.next().unwrap().parse::<usize>().is_ok(),
-            "case {i}: {err}"
-        );
-        assert!(
-            parts.next().unwrap().parse::<usize>().is_ok(),
-            "case {i}: {err}"
-        );
+        assert!(err.starts_with("error: "), "case {i}: {err}");
+        let (file, line, column) = place(&err);
+        assert_eq!(file, path, "case {i}: {err}");
+        assert!(line > 0 && column > 0, "case {i}: {err}");
         assert!(err.contains(needle), "case {i}: {err}");
     }
 }
@@ -247,8 +250,7 @@ fn bad_error_files_name_file_line_and_column() {
             "fixtures/feature_workpiece.nc",
         ]);
         assert_eq!(code, 2, "{err}");
-        let prefix = format!("{path}:");
-        assert!(err.starts_with(&prefix), "case {i}: {err}");
+        assert_eq!(place(&err).0, path, "case {i}: {err}");
         assert!(err.contains(needle), "case {i}: {err}");
     }
 }
@@ -259,10 +261,10 @@ fn blocks_that_cannot_be_compensated_fail_without_touching_the_output() {
     let out_path = dir.join("out.nc");
     std::fs::write(&out_path, "OLD CONTENT\n").unwrap();
     for (program, location, needle) in [
-        ("G0 X0 Y0 Z50 A0 C0\nG91 G2 X10 Y0 I5 J0\n", ":2:5:", "arc"),
-        ("G92 X0\n", ":1:1:", "G92"),
-        ("G1 X[#1 + 2]\n", ":1:4:", "expression"),
-        ("G43.1 Z2\n", ":1:1:", "a dynamic tool length offset"),
+        ("G0 X0 Y0 Z50 A0 C0\nG91 G2 X10 Y0 I5 J0\n", ":2:5\n", "arc"),
+        ("G92 X0\n", ":1:1\n", "G92"),
+        ("G1 X[#1 + 2]\n", ":1:4\n", "expression"),
+        ("G43.1 Z2\n", ":1:1\n", "a dynamic tool length offset"),
     ] {
         let input = write(&dir, "in.nc", program);
         let (code, err) = fails(&[
@@ -276,7 +278,7 @@ fn blocks_that_cannot_be_compensated_fail_without_touching_the_output() {
             out_path.to_str().unwrap(),
         ]);
         assert_eq!(code, 2, "{err}");
-        assert!(err.contains(&format!("{input}{location}")), "{err}");
+        assert!(err.contains(&format!(" --> {input}{location}")), "{err}");
         assert!(err.contains(needle), "{err}");
         assert_eq!(std::fs::read_to_string(&out_path).unwrap(), "OLD CONTENT\n");
     }

@@ -159,10 +159,13 @@ fn bad_input_exits_2_with_the_place() {
     assert_eq!(out.status.code(), Some(2));
     let err = stderr(&out);
     assert!(
-        err.contains("bad.budget.toml:3:1: `EZQ`: the machine has no axis Q"),
+        err.starts_with("error: `EZQ`: the machine has no axis Q"),
         "{err}"
     );
-    assert!(err.contains("\n    EZQ = [1, 2]\n    ^"), "{err}");
+    assert!(
+        err.contains("bad.budget.toml:3:1\n  |\n3 | EZQ = [1, 2]\n  | ^^^\n"),
+        "{err}"
+    );
 
     // A budget without [tolerance] cannot be designed.
     let out = nccomp(&["tolerance", "-m", M, "-b", bad.to_str().unwrap()]);

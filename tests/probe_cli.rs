@@ -225,7 +225,7 @@ fn the_machine_file_gives_the_probe_axis() {
     ]);
     assert_eq!(out.status.code(), Some(2));
     assert!(
-        stderr(&out).starts_with("fixtures/probe_demo.nc:14:6: no speed for this probing move: direction α = 90.0°, β = 45.0° is outside the map, which covers β from -90° to 0° (extend the map or check the probe axis)\n"),
+        stderr(&out).starts_with("error: no speed for this probing move: direction α = 90.0°, β = 45.0° is outside the map, which covers β from -90° to 0° (extend the map or check the probe axis)\n  --> fixtures/probe_demo.nc:14:6\n"),
         "{}",
         stderr(&out)
     );
@@ -314,18 +314,23 @@ fn bad_inputs_are_located() {
         let out = nccomp(&refs);
         assert_eq!(out.status.code(), Some(2), "{refs:?}");
         let err = stderr(&out);
-        let first = err.lines().next().unwrap_or_default();
-        // The file's path, then line:column: and the message (or its start).
+        // `error: ` and the message (or its start), then ` --> file:line:column`.
+        let (location, message) = expected.split_once(": ").unwrap();
+        let mut lines = err.lines();
+        let first = lines.next().unwrap_or_default();
         assert!(
-            first.starts_with(dir.to_str().unwrap()) || first.starts_with("fixtures/"),
-            "{first}"
+            first.starts_with(&format!("error: {message}")),
+            "{refs:?}\n got: {first}\nwant: {message}"
         );
+        let place = lines.next().unwrap_or_default();
+        let file = place.strip_prefix(" --> ").unwrap_or_default();
         assert!(
-            first.contains(&format!("/{expected}")),
-            "{refs:?}\n got: {first}\nwant: {expected}"
+            file.starts_with(dir.to_str().unwrap()) || file.starts_with("fixtures/"),
+            "{place}"
         );
-        // The caret line under the place.
-        assert!(err.lines().count() >= 3, "{err}");
+        assert!(file.ends_with(&format!("/{location}")), "{place}");
+        // The source line and the caret line under the place.
+        assert!(err.lines().count() >= 5, "{err}");
     }
 }
 
@@ -352,7 +357,7 @@ fn speeds_outside_the_bounds_are_refused_and_leave_the_output_alone() {
     assert_eq!(out.status.code(), Some(2));
     let err = stderr(&out);
     assert!(
-        err.starts_with("the equalisation needs 23.08 mm/min in direction α = 120.0°, β = 0.0° (map line 16), below --min-feed 30 mm/min (19 directions need less than that bound). In all it needs 23.08 … 75.89 mm/min (a span of 52.81 mm/min: a variation of 11.16 µm ÷ τ = 12.68 ms)"),
+        err.starts_with("error: the equalisation needs 23.08 mm/min in direction α = 120.0°, β = 0.0° (map line 16), below --min-feed 30 mm/min (19 directions need less than that bound). In all it needs 23.08 … 75.89 mm/min (a span of 52.81 mm/min: a variation of 11.16 µm ÷ τ = 12.68 ms)"),
         "{err}"
     );
     assert!(
@@ -395,7 +400,7 @@ fn usage_errors() {
     let out = nccomp(&["probe"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(
-        stderr(&out).starts_with("nothing to do"),
+        stderr(&out).starts_with("error: nothing to do"),
         "{}",
         stderr(&out)
     );
