@@ -90,8 +90,9 @@ impl Diagnostic {
     }
 
     /// The byte range in `source_line` of the word the diagnostic points at: an NC word
-    /// (a letter and its number, `X-1.5`, `G43.4`), a name (`EZQ`, `tool_chain`), a
-    /// number, or else the one character at the column.
+    /// (a letter and its number, parameter or expression: `X-1.5`, `G43.4`, `X#1`), a
+    /// name (`EZQ`, `tool_chain`), a number, a quoted string, a bracketed list or a
+    /// comment, or else the one character at the column.
     pub fn word(&self) -> std::ops::Range<usize> {
         let line = self.source_line.as_bytes();
         let start = self
@@ -113,11 +114,33 @@ impl Diagnostic {
                 && line.get(after + 1).is_some_and(|&b| is_number(b));
             if signed || line.get(after).is_some_and(|&b| is_number(b)) {
                 run(after + usize::from(signed), &is_number)
+            } else if line.get(after) == Some(&b'#') {
+                // A parameter: `X#1`, `X#<depth>`.
+                run(after + 1, &|b: u8| {
+                    b.is_ascii_alphanumeric() || matches!(b, b'_' | b'<' | b'>')
+                })
+            } else if line.get(after) == Some(&b'[') {
+                // An expression, to its closing bracket.
+                line[after..]
+                    .iter()
+                    .position(|&b| b == b']')
+                    .map_or(line.len(), |i| after + i + 1)
             } else {
                 run(start, &|b: u8| b.is_ascii_alphanumeric() || b == b'_')
             }
         } else if is_number(first) || first == b'-' || first == b'+' {
             run(start + 1, &is_number)
+        } else if let Some(close) = match first {
+            b'"' => Some(b'"'),
+            b'[' => Some(b']'),
+            b'(' => Some(b')'),
+            _ => None,
+        } {
+            // A quoted string, a bracketed list or expression, a comment: to its end.
+            line[start + 1..]
+                .iter()
+                .position(|&b| b == close)
+                .map_or(line.len(), |i| start + 1 + i + 1)
         } else {
             // One character, however many bytes it takes.
             start
@@ -266,6 +289,13 @@ mod tests {
         assert_eq!(word("50,abc", 4), "abc");
         assert_eq!(word("50,-1.5e3", 4), "-1.5");
         assert_eq!(word("G1 #1", 4), "#");
+        assert_eq!(word("chain = [\"A\", \"CC\"]", 15), "\"CC\"");
+        assert_eq!(word("ECX = [0.0349]  # yaw", 7), "[0.0349]");
+        assert_eq!(word("G0 (retract) X1", 4), "(retract)");
+        assert_eq!(word("G1 X#1 Y10", 4), "X#1");
+        assert_eq!(word("G1 X#<depth> Y10", 4), "X#<depth>");
+        assert_eq!(word("G1 X[#1 + 2] Y1", 4), "X[#1 + 2]");
+        assert_eq!(word("G1 X[#1 + 2", 4), "X[#1 + 2");
         assert_eq!(word("(\u{e9}t\u{e9})", 2), "\u{e9}");
         // Past the end of the line: an empty word, never a panic.
         assert_eq!(word("G1", 9), "");
