@@ -40,13 +40,7 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 /// A program with a canned cycle (refused) and a move below Z's travel (-100 … 400).
-const BAD: &str = "G90 G0 X0 Y0 Z50 A-20 C0\nG1 X100 Y100 Z20 A-20 C30 F500\nG81 X10 Y10 Z-5 R2 F100\nG1 X-40 Y-40 Z-250 A-20 C0\nM30\n";
-
-fn bad_program(dir: &Path) -> String {
-    let path = dir.join("bad.nc");
-    std::fs::write(&path, BAD).unwrap();
-    path.to_str().unwrap().to_string()
-}
+const DEMO: &str = "fixtures/check_demo.nc";
 
 /// The JSON output, checked against docs/check.schema.json.
 fn valid_json(out: &Output) -> Value {
@@ -161,9 +155,8 @@ fn exit_0_json_matches_the_schema_and_the_summary() {
 
 #[test]
 fn exit_1_human_points_at_the_offending_words() {
-    let dir = scratch("h1");
-    let bad = bad_program(&dir);
-    let out = check(&[&bad]);
+    let bad = DEMO;
+    let out = check(&[bad]);
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     assert_eq!(stderr(&out), "");
     let text = stdout(&out);
@@ -173,11 +166,11 @@ fn exit_1_human_points_at_the_offending_words() {
         "{text}"
     );
     let refused = format!(
-        "error[refused]: G81 cannot be compensated: a canned cycle is not supported\n --> {bad}:3:1\n  |\n3 | G81 X10 Y10 Z-5 R2 F100\n  | ^^^\n"
+        "error[refused]: G81 cannot be compensated: a canned cycle is not supported\n --> {bad}:5:5\n  |\n5 | N30 G81 X10. Y10. Z-5. R2. F100\n  |     ^^^\n"
     );
     assert!(text.contains(&refused), "{text}");
     let travel = format!(
-        "error[travel_limit]: axis Z is programmed to -250.0000, outside its travel -100 … 400 (use --allow-limit-violations to compensate it anyway)\n --> {bad}:4:14\n  |\n4 | G1 X-40 Y-40 Z-250 A-20 C0\n  |              ^^^^^\n"
+        "error[travel_limit]: axis Z is programmed to -250.0000, outside its travel -100 … 400 (use --allow-limit-violations to compensate it anyway)\n --> {bad}:7:20\n  |\n7 | N50 G1 X-40. Y-40. Z-250. A-20. C0\n  |                    ^^^^^^\n"
     );
     assert!(text.contains(&travel), "{text}");
     assert!(
@@ -188,10 +181,8 @@ fn exit_1_human_points_at_the_offending_words() {
 
 #[test]
 fn exit_1_json_lists_every_kind_of_finding() {
-    let dir = scratch("j1");
-    let bad = bad_program(&dir);
     // With --allow-limit-violations the travel violation is written and still a finding.
-    let out = check(&["--format", "json", "--allow-limit-violations", &bad]);
+    let out = check(&["--format", "json", "--allow-limit-violations", DEMO]);
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     let doc = valid_json(&out);
     assert_eq!(
@@ -209,8 +200,15 @@ fn exit_1_json_lists_every_kind_of_finding() {
             )
         })
         .collect();
-    assert_eq!(kinds, [("refused", 3, 1), ("travel_limit", 4, 14)]);
-    assert_eq!(findings[1]["source_line"], "G1 X-40 Y-40 Z-250 A-20 C0");
+    assert_eq!(kinds, [("refused", 5, 5), ("travel_limit", 7, 20)]);
+    assert_eq!(
+        findings[1]["source_line"],
+        "N50 G1 X-40. Y-40. Z-250. A-20. C0"
+    );
+    assert_eq!(
+        findings[1]["message"],
+        "axis Z is programmed to -250.0000, below its travel limit -100"
+    );
 
     // Thresholds turn predictions into findings: a tip tolerance below what the rounded
     // output reaches, and a direction tolerance below what singular poses keep.
@@ -356,10 +354,8 @@ fn exit_2_for_unusable_options_and_files_before_any_report() {
 #[test]
 fn no_color_and_pipes_get_plain_text() {
     // stdout is a pipe here: whatever NO_COLOR says, no escape codes.
-    let dir = scratch("nc");
-    let bad = bad_program(&dir);
     let out = Command::new(env!("CARGO_BIN_EXE_nccomp"))
-        .args(["check", "-m", M, "-e", E, &bad])
+        .args(["check", "-m", M, "-e", E, DEMO])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .env("NO_COLOR", "1")
         .output()
