@@ -582,7 +582,9 @@ fn compensate(args: &CompensateArgs) -> nccomp::Result<Status> {
         (Some(expected), _) => {
             let (committed, expected_name) = read_file(expected)?;
             if let Some(diff) = nccomp::check::stale::compare(&expected_name, &committed, &out) {
-                print(&diff)?;
+                print(&format!(
+                    "{diff}to update it, run the same command with `-o {expected_name}` in place of `--check --expected {expected_name}`\n"
+                ))?;
                 status = Status::Findings;
             }
         }

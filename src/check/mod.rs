@@ -469,3 +469,73 @@ impl Run {
             .unwrap_or(Status::Clean)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{error_file, machine_file};
+    use std::path::Path;
+
+    fn fixture(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("fixtures")
+            .join(name)
+    }
+
+    #[test]
+    fn finding_codes_are_the_json_kinds() {
+        for kind in [
+            FindingKind::Refused,
+            FindingKind::TravelLimit,
+            FindingKind::TipError,
+            FindingKind::DirectionError,
+        ] {
+            assert_eq!(serde_json::to_value(kind).unwrap(), kind.code());
+        }
+    }
+
+    #[test]
+    fn the_worst_program_decides_the_run() {
+        let machine = machine_file::load(&fixture("ac_trunnion.machine.toml")).unwrap();
+        let errors = error_file::load(&fixture("ac_trunnion.errors.toml"), &machine).unwrap();
+        let checker =
+            Checker::new(&machine, &errors, Options::default(), Thresholds::default()).unwrap();
+        let clean = checker.program(b"G0 X10 Y10 Z50 A-20 C30\n", "a.nc");
+        assert_eq!(clean.status, Status::Clean, "{clean:#?}");
+        let refused = checker.program(b"G0 X10 Y10 Z50 A-20 C30\nG81 X1\n", "b.nc");
+        assert_eq!(refused.status, Status::Findings);
+        assert_eq!(refused.lands_every_pose, Some(false));
+        let mut run = Run {
+            machine: String::new(),
+            errors: String::new(),
+            thresholds: Thresholds::default(),
+            programs: vec![clean.clone()],
+        };
+        assert_eq!(run.status(), Status::Clean);
+        run.programs.push(refused);
+        assert_eq!(run.status(), Status::Findings);
+        run.programs
+            .push(checker.file(&fixture("no such program.nc")));
+        assert_eq!(run.status(), Status::Unusable);
+        assert_eq!(run.status().exit_code(), 2);
+    }
+
+    #[test]
+    fn a_zero_model_checks_nothing_and_says_so() {
+        let machine = machine_file::load(&fixture("ac_trunnion.machine.toml")).unwrap();
+        let zero = ErrorModel::zero(&machine);
+        let checker =
+            Checker::new(&machine, &zero, Options::default(), Thresholds::default()).unwrap();
+        let check = checker.program(b"G81 X1\n", "a.nc");
+        assert_eq!(check.status, Status::Clean);
+        assert!(check.notes[0].contains("nothing was checked"), "{check:#?}");
+    }
+
+    #[test]
+    fn thresholds_must_be_positive() {
+        assert!(Thresholds::new(0.01, None).is_ok());
+        assert!(Thresholds::new(0.0, None).is_err());
+        assert!(Thresholds::new(0.01, Some(-1.0)).is_err());
+        assert!(Thresholds::new(f64::NAN, None).is_err());
+    }
+}
