@@ -504,6 +504,9 @@ struct CheckArgs {
     /// Output format: diagnostics for people, or JSON (docs/check.schema.json).
     #[arg(long, value_enum, default_value = "human")]
     format: CheckFormat,
+    /// Human format: leave clean programs out of the report (the totals still count them).
+    #[arg(long, short = 'q')]
+    quiet: bool,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -644,7 +647,7 @@ fn check(args: &CheckArgs) -> nccomp::Result<Status> {
         programs,
     };
     print(&match args.format {
-        CheckFormat::Human => run.human(use_color(&std::io::stdout())),
+        CheckFormat::Human => run.human(use_color(&std::io::stdout()), args.quiet),
         CheckFormat::Json => run.json(),
     })?;
     Ok(run.status())

@@ -177,6 +177,21 @@ fn exit_1_human_points_at_the_offending_words() {
         text.contains(": 0 clean, 1 with findings, 0 unusable"),
         "{text}"
     );
+
+    // -q leaves the clean programs out of the report, not out of the totals.
+    let out = check(&["-q", "fixtures/ac_trunnion_tcp.nc", bad]);
+    assert_eq!(out.status.code(), Some(1));
+    let quiet = stdout(&out);
+    assert!(!quiet.contains("ac_trunnion_tcp.nc"), "{quiet}");
+    assert!(
+        quiet.starts_with(&format!("{bad}: 2 findings\n")),
+        "{quiet}"
+    );
+    assert!(
+        quiet.contains(&refused) && quiet.contains(&travel),
+        "{quiet}"
+    );
+    assert!(quiet.ends_with("1 clean, 1 with findings, 0 unusable (--max-error 0.01 mm)\n"));
 }
 
 #[test]

@@ -2,12 +2,12 @@
 //! `nccomp check 'programs/**/*.nc'` works without a shell (CI runners, Windows).
 
 use crate::diag::Error;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-/// The files named by `args`, in order, each once. An argument with `*`, `?` or `[` is a
-/// glob pattern (`**` crosses directories) and must match at least one file; its matches
-/// come sorted. Any other argument is taken as a path, whether it exists or not (a
-/// missing file is reported when it is read).
+/// The files named by `args`, in order, each once. An argument with `*`, `?` or `[` that
+/// is not the name of a file is a glob pattern (`**` crosses directories) and must match
+/// at least one file; its matches come sorted. Any other argument is taken as a path,
+/// whether it exists or not (a missing file is reported when it is read).
 pub fn expand(args: &[String]) -> crate::Result<Vec<PathBuf>> {
     let mut files: Vec<PathBuf> = Vec::new();
     let mut push = |p: PathBuf| {
@@ -16,7 +16,8 @@ pub fn expand(args: &[String]) -> crate::Result<Vec<PathBuf>> {
         }
     };
     for arg in args {
-        if !arg.contains(['*', '?', '[']) {
+        // A file whose name holds `[` or `?` is still that file.
+        if !arg.contains(['*', '?', '[']) || Path::new(arg).is_file() {
             push(PathBuf::from(arg));
             continue;
         }
@@ -51,7 +52,7 @@ mod tests {
     #[test]
     fn patterns_expand_sorted_and_paths_stay_as_given() {
         let dir = tempfile::tempdir().unwrap();
-        for name in ["b.nc", "a.nc", "c.txt"] {
+        for name in ["b.nc", "a.nc", "c.txt", "odd[1].nc"] {
             std::fs::write(dir.path().join(name), "G0 X1\n").unwrap();
         }
         std::fs::create_dir(dir.path().join("sub.nc")).unwrap();
@@ -67,9 +68,11 @@ mod tests {
             .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
             .collect();
         // Directories are not programs; a file named twice is checked once.
-        assert_eq!(names, ["missing.nc", "a.nc", "b.nc"]);
+        assert_eq!(names, ["missing.nc", "a.nc", "b.nc", "odd[1].nc"]);
         let err = expand(&[format!("{d}/*.tap")]).unwrap_err();
         assert!(err.to_string().ends_with("matches no file"), "{err}");
         assert!(expand(&[format!("{d}/[.nc")]).is_err());
+        let odd = expand(&[format!("{d}/odd[1].nc")]).unwrap();
+        assert!(odd[0].ends_with("odd[1].nc"), "{odd:?}");
     }
 }

@@ -64,10 +64,14 @@ impl Run {
     }
 
     /// The run for a person: per program its predictions, notes and findings (as
-    /// rustc-style diagnostics, coloured when `color` is set), then the totals.
-    pub fn human(&self, color: bool) -> String {
+    /// rustc-style diagnostics, coloured when `color` is set), then the totals. With
+    /// `failures_only`, clean programs are left out.
+    pub fn human(&self, color: bool, failures_only: bool) -> String {
         let mut out = String::new();
         for p in &self.programs {
+            if failures_only && p.status == Status::Clean {
+                continue;
+            }
             program(&mut out, p, &self.thresholds, color);
             out.push('\n');
         }
