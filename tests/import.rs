@@ -545,8 +545,9 @@ fn cli_converts_both_formats_into_files_that_compensate() {
     assert_eq!(r.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&r.stderr);
     assert!(
-        stderr
-            .starts_with("fixtures/import/ac_trunnion.isg.csv:8:1: text before the first section"),
+        stderr.starts_with(
+            "error: text before the first section: expected a section header such as [C0B]\n --> fixtures/import/ac_trunnion.isg.csv:8:1\n"
+        ),
         "{stderr}"
     );
 }
@@ -561,11 +562,13 @@ fn cli_bad_input_exits_2_and_writes_nothing() {
     assert_eq!(r.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&r.stderr);
     assert!(
-        stderr.starts_with(&format!("{input}:3:3: `zero` is not a number")),
+        stderr.starts_with(&format!(
+            "error: `zero` is not a number: expected the value of `EXX` (mm for lengths, rad for angles)\n --> {input}:3:3\n"
+        )),
         "{stderr}"
     );
-    // The caret under the word.
-    assert!(stderr.contains("\n    1 zero\n      ^"), "{stderr}");
+    // The carets under the word.
+    assert!(stderr.contains("\n3 | 1 zero\n  |   ^^^^\n"), "{stderr}");
     assert!(!out.exists());
     let r = nccomp(&["errors", "convert", "no/such/file.csv"]);
     assert_eq!(r.status.code(), Some(2));

@@ -389,7 +389,11 @@ fn cli_refuses_bad_requests_and_writes_nothing() {
             Path::new(PROGRAM),
             "--grid 500: expected 2 to 101",
         ),
-        (&[][..], bad_program.as_path(), "g41.nc:2:1: "),
+        (
+            &[][..],
+            bad_program.as_path(),
+            "error: G41 cannot be compensated: cutter radius compensation (G41/G42) is not supported\n --> ",
+        ),
     ] {
         let out = run(extra, program);
         let stderr = String::from_utf8_lossy(&out.stderr);
