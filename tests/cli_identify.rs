@@ -238,10 +238,15 @@ fn bad_inputs_name_file_line_and_column() {
             cmm,
         ])
     };
-    let fails = |out: Output, start: &str, words: &str| {
+    // Rendered rustc-style: `error: message`, then ` --> file:line:column` where there is
+    // a place (`place` is `file:line:column:`, `file:` or empty).
+    let fails = |out: Output, place: &str, words: &str| {
         assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
         let e = text(&out.stderr);
-        assert!(e.starts_with(start) && e.contains(words), "{e}");
+        assert!(e.starts_with("error: ") && e.contains(words), "{e}");
+        if let Some(place) = place.strip_suffix(':') {
+            assert!(e.contains(&format!("--> {place}")), "{place}: {e}");
+        }
     };
     // A measurement that does not read.
     let cmm = std::fs::read_to_string(&b).unwrap();
