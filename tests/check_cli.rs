@@ -39,7 +39,7 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// A program with a canned cycle (refused) and a move below Z's travel (-100 … 400).
+/// A program with cutter compensation (refused) and a move below Z's travel (-100 … 400).
 const DEMO: &str = "fixtures/check_demo.nc";
 
 /// The JSON output, checked against docs/check.schema.json.
@@ -178,7 +178,7 @@ fn exit_1_human_points_at_the_offending_words() {
         "{text}"
     );
     let refused = format!(
-        "error[refused]: G81 cannot be compensated: a canned cycle is not supported\n --> {bad}:5:5\n  |\n5 | N30 G81 X10. Y10. Z-5. R2. F100\n  |     ^^^\n"
+        "error[refused]: G41 cannot be compensated: cutter radius compensation (G41/G42) is not supported\n --> {bad}:5:5\n  |\n5 | N30 G41 D1 X10. Y10.\n  |     ^^^\n"
     );
     assert!(text.contains(&refused), "{text}");
     let travel = format!(

@@ -362,11 +362,7 @@ fn cli_refuses_bad_requests_and_writes_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let page = dir.path().join("report.html");
     let bad_program = dir.path().join("g41.nc");
-    std::fs::write(
-        &bad_program,
-        "G90 G1 X10 Y10 Z5 A0 C0\nG41 X10 Y10 D1\n",
-    )
-    .unwrap();
+    std::fs::write(&bad_program, "G90 G1 X10 Y10 Z5 A0 C0\nG41 X10 Y10 D1\n").unwrap();
     let run = |extra: &[&str], program: &Path| {
         Command::new(env!("CARGO_BIN_EXE_nccomp"))
             .args(["report", "--machine", MACHINE, "--errors", ERRORS])

@@ -502,7 +502,7 @@ mod tests {
             Checker::new(&machine, &errors, Options::default(), Thresholds::default()).unwrap();
         let clean = checker.program(b"G0 X10 Y10 Z50 A-20 C30\n", "a.nc");
         assert_eq!(clean.status, Status::Clean, "{clean:#?}");
-        let refused = checker.program(b"G0 X10 Y10 Z50 A-20 C30\nG81 X1\n", "b.nc");
+        let refused = checker.program(b"G0 X10 Y10 Z50 A-20 C30\nG41 D1 X1\n", "b.nc");
         assert_eq!(refused.status, Status::Findings);
         assert_eq!(refused.lands_every_pose, Some(false));
         let mut run = Run {
@@ -526,7 +526,7 @@ mod tests {
         let zero = ErrorModel::zero(&machine);
         let checker =
             Checker::new(&machine, &zero, Options::default(), Thresholds::default()).unwrap();
-        let check = checker.program(b"G81 X1\n", "a.nc");
+        let check = checker.program(b"G41 D1 X1\n", "a.nc");
         assert_eq!(check.status, Status::Clean);
         assert!(check.notes[0].contains("nothing was checked"), "{check:#?}");
     }
