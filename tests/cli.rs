@@ -136,7 +136,8 @@ fn a_zero_error_model_gives_every_fixture_program_back_byte_for_byte() {
         ("bc_trunnion", "bc_trunnion_demo"),
         ("head_head", "head_head_demo"),
         ("grinder", "grinder_demo"),
-        ("mill_turn", "mill_turn_demo"),
+        ("mill_turn", "mill_turn_turning"),
+        ("mill_turn", "mill_turn_milling"),
     ] {
         let input = format!("fixtures/{program}.nc");
         let out = nccomp(&[

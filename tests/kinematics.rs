@@ -244,9 +244,11 @@ fn three_axis_rotary(rotary_first: bool) -> nccomp::model::Machine {
         tool_chains: vec![nccomp::model::Chain {
             name: "tool".into(),
             axes: tool,
+            tools: Vec::new(),
         }],
         resolution: Default::default(),
         tool: Default::default(),
+        lathe: None,
     }
 }
 

@@ -144,17 +144,23 @@ fn mill_turn_has_named_tool_chains_and_words() {
             .map(|&i| m.axes[i].name.as_str())
             .collect()
     };
-    assert_eq!(chain(0), ["Z1", "X1", "Y1"]);
+    assert_eq!(chain(0), ["Z1", "X1", "Y1", "B"]);
     assert_eq!(chain(1), ["Z2", "X2"]);
+    assert_eq!(m.tool_chains[0].tools, [1, 2, 3, 4, 5, 6, 7, 8]);
+    assert_eq!(m.chain_of_tool(11), Some(1));
+    assert_eq!(m.chain_of_tool(9), None);
+    let lathe = m.lathe.unwrap();
+    assert_eq!(m.axes[lathe.spindle].name, "C");
+    assert!(!lathe.diameter);
     assert_eq!(axis("X2").word, 'X');
     assert_eq!(axis("Z1").word, 'Z');
     assert_eq!(axis("C").word, 'C');
     assert_eq!(axis("X2").direction, Vector3::new(-1.0, 0.0, 0.0));
     let arcsec = std::f64::consts::PI / (180.0 * 3600.0);
     let z1 = &e.axes[m.axis_index("Z1").unwrap()];
-    assert!(close(z1.squareness.y, 2.0 * arcsec));
+    assert!(close(z1.squareness.y, 3.0 * arcsec));
     let t = e.axes[m.axis_index("X2").unwrap()].motion.as_ref().unwrap();
-    assert!(close(t.values[0].as_ref().unwrap()[2], -2.5e-3));
+    assert!(close(t.values[0].as_ref().unwrap()[2], -3.5e-3));
 }
 
 #[test]

@@ -48,14 +48,27 @@ fn grinder_demo() {
     insta::assert_snapshot!(compensate("grinder", "grinder_demo", Options::default()));
 }
 
+/// Turning on the mill-turn centre: the upper turret in diameter mode (G7: the X words
+/// written back are diameters, twice the compensated radius), then the lower turret (T11)
+/// in radius mode; the spindle turns, so C is never written.
 #[test]
-fn mill_turn_demo_upper_turret() {
-    let options = Options {
-        tool_chain: Some("upper".into()),
-        hold: vec!["C".into()],
-        ..Options::default()
-    };
-    insta::assert_snapshot!(compensate("mill_turn", "mill_turn_demo", options));
+fn mill_turn_turning() {
+    insta::assert_snapshot!(compensate(
+        "mill_turn",
+        "mill_turn_turning",
+        Options::default()
+    ));
+}
+
+/// Milling on the mill-turn centre with live tools: the spindle positioned (M19, C words),
+/// Y-axis and C-axis operations and a radial one at B90.
+#[test]
+fn mill_turn_milling() {
+    insta::assert_snapshot!(compensate(
+        "mill_turn",
+        "mill_turn_milling",
+        Options::default()
+    ));
 }
 
 #[test]

@@ -10,9 +10,10 @@
 //! along the way. Where that stays within the path tolerance the arc is kept; otherwise it
 //! is replaced by straight pieces (`arcs`).
 
+use super::exact::Unit;
 use super::split::Style;
 use super::words::BlockMotion;
-use super::{Compensator, Edit, INCH, State};
+use super::{Edit, INCH, Pass, State};
 use crate::kinematics::path::PathTolerance;
 use crate::kinematics::{MAX_AXES, Model, angle_between};
 use crate::nc::number::{same_text, scaled, write_fixed};
@@ -102,7 +103,7 @@ pub(super) struct KeptArc {
     pub centre_words: Vec<(Result<usize, u8>, String)>,
 }
 
-impl Compensator<'_> {
+impl Pass<'_> {
     /// The kept arc for `nominal` (an arc block whose words `motion` and `tokens` hold), if
     /// what the controller makes of it stays within `tol` of the nominal arc.
     #[allow(clippy::too_many_arguments)]
@@ -135,11 +136,10 @@ impl Compensator<'_> {
         // The end as it will be written.
         let mut end = end_solution.q;
         for (v, x) in end.iter_mut().enumerate().take(n) {
-            let inch = state.inch && self.is_linear(v);
-            let d = state.decimals[v].max(self.res_decimals(v, state.inch));
-            let unit = if inch { INCH } else { 1.0 };
-            if let Some(k) = scaled(*x / unit, d) {
-                *x = k as f64 / 10f64.powi(d.into()) * unit;
+            let unit = self.unit(v, state);
+            let d = state.decimals[v].max(self.res_decimals(v, unit));
+            if let Some(k) = scaled(unit.from_mm(*x), d) {
+                *x = unit.to_mm(k as f64 / 10f64.powi(d.into()));
             }
         }
         let full = nominal.sweep.abs() > TAU - 1e-9;
@@ -160,13 +160,18 @@ impl Compensator<'_> {
             },
             _ => None,
         };
+        // Centres and radii are never diameters.
+        let centre_unit = Unit {
+            inch: state.inch,
+            diameter: false,
+        };
         let unit = if state.inch { INCH } else { 1.0 };
         let mut centre_words = Vec::new();
         let written_centre = if let Some(ri) = motion.arc_words[3] {
             let (old, decimals) = number(ri)?;
             let probe = ArcPath::through(nominal, centre, start, end);
             let radius = probe.r0 / unit;
-            let d = decimals.max(self.res_decimals(nominal.va, state.inch));
+            let d = decimals.max(self.res_decimals(nominal.va, centre_unit));
             let new = radius.copysign(old);
             let mut text = String::new();
             write_fixed(new, d, &mut text);
@@ -203,7 +208,7 @@ impl Compensator<'_> {
                 let index = motion.arc_words[b"IJKR".iter().position(|&l| l == letter)?];
                 let offset = ([centre.0, centre.1][c] - [origin.0, origin.1][c]) / unit;
                 let var = if c == 0 { nominal.va } else { nominal.vb };
-                let res = self.res_decimals(var, state.inch);
+                let res = self.res_decimals(var, centre_unit);
                 let (old, d) = match index.and_then(number) {
                     Some((old, decimals)) => (Some(old), decimals.max(res)),
                     None => (None, res),
@@ -263,7 +268,8 @@ impl Compensator<'_> {
             let (target, jac) = nominal_at(closest);
             let singular = self
                 .kin
-                .singular_axes(&target, &jac, self.options.solve.singular_angle);
+                .singular_axes(&target, &jac, self.options.solve.singular_angle)
+                & !self.hold;
             if singular != end_solution.singular {
                 // A rotary axis enters or leaves the singular cone along the arc: its
                 // correction jumps there, which the straight pieces deal with.

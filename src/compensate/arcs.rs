@@ -13,7 +13,7 @@ use super::arc_keep::ArcPath;
 use super::exact::Position;
 use super::split::Style;
 use super::words::BlockMotion;
-use super::{Compensator, Edit, INCH, State, Summary, axis_order};
+use super::{Edit, INCH, Pass, State, Summary, axis_order};
 use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
 use crate::model::AxisKind;
@@ -38,7 +38,7 @@ fn plane_letters(plane: u8) -> Option<([u8; 2], [u8; 2])> {
     }
 }
 
-impl Compensator<'_> {
+impl Pass<'_> {
     /// One G2/G3 block.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn arc_block(
@@ -87,8 +87,15 @@ impl Compensator<'_> {
         {
             return refuse("in inverse-time feed (G93) an arc needs its own F word");
         }
-        if state.unknown != 0 {
-            return refuse("the arc starts where G28, G30 or G53 left an axis at an unknown place");
+        if state.unknown & !self.spindle != 0 {
+            return refuse(
+                "the arc starts where an axis is at a place nccomp does not know (after G28, G30, G53, M19 or a change of tool chain)",
+            );
+        }
+        if state.diameter && state.arc_absolute {
+            return refuse(
+                "absolute arc centres (G90.1) in diameter mode (G7) are not supported (program the centre incrementally, G91.1)",
+            );
         }
         let Some((plane, centre_letters)) = plane_letters(state.plane) else {
             return refuse("arcs in a U/V/W plane (G17.1, G18.1, G19.1) are not supported");
@@ -106,7 +113,8 @@ impl Compensator<'_> {
             return refuse("the program has not yet set where the arc starts in its plane");
         }
         for (v, word) in axis_words.iter().enumerate().take(n) {
-            if state.programmed & (1 << v) == 0 && word.is_none() {
+            // Axes turning holds are not corrected.
+            if state.programmed & (1 << v) == 0 && word.is_none() && self.idle & (1 << v) == 0 {
                 summary.note_assumed_home(self.axis_name(v), line.number);
             }
         }
@@ -123,12 +131,7 @@ impl Compensator<'_> {
         let mut end = state.nominal;
         for v in 0..n {
             if let Some(i) = axis_words[v] {
-                let value = number(i);
-                end[v] = if state.inch && self.is_linear(v) {
-                    value * INCH
-                } else {
-                    value
-                };
+                end[v] = self.unit(v, state).to_mm(number(i));
                 state.programmed |= 1 << v;
             }
         }
@@ -268,25 +271,21 @@ impl Compensator<'_> {
                 words.push(style.letter(b'G') + "1");
             }
             for &v in &order {
-                let inch = state.inch && self.is_linear(v);
-                let value = if inch { sol.q[v] / INCH } else { sol.q[v] };
-                let emitted = if inch {
-                    state.emitted[v] / INCH
-                } else {
-                    state.emitted[v]
-                };
-                let d = state.decimals[v].max(self.res_decimals(v, state.inch));
+                let unit = self.unit(v, state);
+                let value = unit.from_mm(sol.q[v]);
+                let emitted = unit.from_mm(state.emitted[v]);
+                let d = state.decimals[v].max(self.res_decimals(v, unit));
                 if same_text(emitted, value, d) {
                     continue;
                 }
                 let mut number = String::new();
                 write_fixed(value, d, &mut number);
                 let x: f64 = number.parse().unwrap_or(value);
-                state.emitted[v] = if inch { x * INCH } else { x };
+                state.emitted[v] = unit.to_mm(x);
                 state.written[v] = Position::Decimal {
                     value,
                     decimals: d,
-                    inch,
+                    unit,
                 };
                 words.push(style.letter(self.letter(v)) + &number);
             }

@@ -8,8 +8,9 @@
 //! depth: where the tool at the R plane, with the bottom's X, Y, would be further from the
 //! hole's axis than the path tolerance, the cycle is refused (program it as G0/G1 moves).
 
+use super::exact::Unit;
 use super::words::BlockMotion;
-use super::{Compensator, Edit, INCH, State, Summary};
+use super::{Edit, Pass, State, Summary};
 use crate::diag::Diagnostic;
 use crate::kinematics::Model;
 use crate::model::AxisKind;
@@ -28,7 +29,7 @@ pub(super) struct Cycle {
     pub initial: (f64, f64),
 }
 
-impl Compensator<'_> {
+impl Pass<'_> {
     /// One block of an active drilling cycle.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn cycle_block(
@@ -82,12 +83,18 @@ impl Compensator<'_> {
                 "cycles under tool-centre-point control (G43.4/G43.5) are not supported".into(),
             );
         }
+        if self.turning {
+            return refuse(
+                "cycles while turning (the spindle turns or is not positioned) are not supported (program the hole as G1 moves)"
+                    .into(),
+            );
+        }
         if motion.optional {
             return refuse("an optional block (/) with a cycle is not supported".into());
         }
-        if state.unknown != 0 {
+        if state.unknown & !self.spindle != 0 {
             return refuse(
-                "it starts where G28, G30 or G53 left an axis at an unknown place".into(),
+                "it starts where an axis is at a place nccomp does not know (after G28, G30, G53, M19 or a change of tool chain)".into(),
             );
         }
         for (v, word) in axis_words.iter().enumerate().take(n) {
@@ -119,7 +126,8 @@ impl Compensator<'_> {
             },
             _ => unreachable!("cycle words are words"),
         };
-        let mm = |x: f64| if state.inch { x * INCH } else { x };
+        // Z and R are never diameters; X may be (G7).
+        let zu = Unit::inch(state.inch);
         let mut cycle = state.cycle.unwrap_or(Cycle {
             bottom: None,
             r_plane: None,
@@ -128,17 +136,17 @@ impl Compensator<'_> {
             initial: (state.nominal[vz], state.emitted[vz]),
         });
         if let Some(i) = axis_words[vz] {
-            cycle.bottom = Some(mm(number(i).0));
+            cycle.bottom = Some(zu.to_mm(number(i).0));
         }
         if let Some(i) = motion.arc_words[3] {
-            cycle.r_plane = Some(mm(number(i).0));
+            cycle.r_plane = Some(zu.to_mm(number(i).0));
         }
         let (Some(bottom), Some(r_plane)) = (cycle.bottom, cycle.r_plane) else {
             return refuse("it needs its bottom (Z) and retract plane (R)".into());
         };
         for v in [vx, vy] {
             if let Some(i) = axis_words[v] {
-                state.nominal[v] = mm(number(i).0);
+                state.nominal[v] = self.unit(v, state).to_mm(number(i).0);
                 state.programmed |= 1 << v;
             }
             if state.programmed & (1 << v) == 0 {
@@ -185,8 +193,7 @@ impl Compensator<'_> {
 
         // X, Y and the bottom Z, as any block's axis words (a missing Z is compared with the
         // cycle's bottom as last written, not with where the machine stands).
-        let unit = if state.inch { INCH } else { 1.0 };
-        state.emitted[vz] = cycle.bottom_written.map_or(f64::NAN, |z| z * unit);
+        state.emitted[vz] = cycle.bottom_written.map_or(f64::NAN, |z| zu.to_mm(z));
         self.write_positions(
             line,
             tokens,
@@ -198,10 +205,10 @@ impl Compensator<'_> {
             summary,
             at,
         )?;
-        cycle.bottom_written = Some(state.emitted[vz] / unit);
+        cycle.bottom_written = Some(zu.from_mm(state.emitted[vz]));
         // R: rewritten where it is, added where the modal value no longer fits.
-        let r_value = r_sol.q[vz] / unit;
-        let d = self.res_decimals(vz, state.inch);
+        let r_value = zu.from_mm(r_sol.q[vz]);
+        let d = self.res_decimals(vz, zu);
         match motion.arc_words[3] {
             Some(i) => {
                 let (old, decimals, span) = number(i);
@@ -257,7 +264,7 @@ impl Compensator<'_> {
         );
         // Where the cycle leaves the tool: the R plane (G99) or the initial level (G98;
         // R when that is higher).
-        let r_emitted = cycle.r_written.map_or(r_sol.q[vz], |r| r * unit);
+        let r_emitted = cycle.r_written.map_or(r_sol.q[vz], |r| zu.to_mm(r));
         let (z_nominal, z_emitted) = if state.retract_to_initial && cycle.initial.0 > r_plane {
             cycle.initial
         } else {
@@ -266,9 +273,9 @@ impl Compensator<'_> {
         state.nominal[vz] = z_nominal;
         state.emitted[vz] = z_emitted;
         state.written[vz] = super::exact::Position::Decimal {
-            value: z_emitted / unit,
+            value: zu.from_mm(z_emitted),
             decimals: state.decimals[vz],
-            inch: state.inch,
+            unit: zu,
         };
         state.cycle = Some(cycle);
         Ok(())

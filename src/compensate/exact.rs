@@ -7,10 +7,12 @@
 //! of the written increments is then exactly the rounded compensated position, however
 //! many blocks there are.
 
+use super::INCH;
 use crate::nc::number::{fixed, scaled};
 
 /// Positions are integers of 10^-SCALE mm (or degree). An inch word with `d` decimals is
-/// exactly `254 · 10^(SCALE − d − 1)` units per last digit, so inch words are exact too.
+/// exactly `254 · 10^(SCALE − d − 1)` units per last digit, so inch words are exact too
+/// (and diameter words, at 5 or 127 of those).
 pub(super) const SCALE: u8 = 13;
 
 /// The most decimals an incremental word may have (and an added one gets).
@@ -58,27 +60,74 @@ const POW10: [i128; SCALE as usize + 1] = {
     p
 };
 
-/// Units in one step of the last digit of a word with `decimals` decimals, in inch or not.
-pub(super) fn step(decimals: u8, inch: bool) -> Option<i128> {
-    if inch {
-        let e = SCALE.checked_sub(decimals)?.checked_sub(1)?;
-        Some(254 * POW10[usize::from(e)])
+/// What a word's number is in: mm (degrees for rotary words) or inch, and either one as a
+/// diameter (a lathe's X in G7: the axis moves by half the number).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(super) struct Unit {
+    pub inch: bool,
+    pub diameter: bool,
+}
+
+impl Unit {
+    pub const MM: Unit = Unit {
+        inch: false,
+        diameter: false,
+    };
+
+    /// Tenths of a unit (mm or degree) in one of the word's: 10, 254 (inch), 5 (diameter),
+    /// 127 (inch diameter). Whole tenths keep every word exact in units.
+    fn tenths(self) -> i128 {
+        match (self.inch, self.diameter) {
+            (false, false) => 10,
+            (true, false) => 254,
+            (false, true) => 5,
+            (true, true) => 127,
+        }
+    }
+
+    /// Millimetres or inch, not a diameter.
+    pub fn inch(inch: bool) -> Unit {
+        Unit {
+            inch,
+            diameter: false,
+        }
+    }
+
+    /// A number of this unit in mm (degrees).
+    pub fn to_mm(self, x: f64) -> f64 {
+        let x = if self.inch { x * INCH } else { x };
+        if self.diameter { x / 2.0 } else { x }
+    }
+
+    /// A value in mm (degrees) as a number of this unit.
+    pub fn from_mm(self, x: f64) -> f64 {
+        let x = if self.diameter { x * 2.0 } else { x };
+        if self.inch { x / INCH } else { x }
+    }
+}
+
+/// Units in one step of the last digit of a word with `decimals` decimals.
+pub(super) fn step(decimals: u8, unit: Unit) -> Option<i128> {
+    let e = usize::from(SCALE.checked_sub(decimals)?);
+    let tenths = unit.tenths();
+    if tenths % 10 == 0 {
+        Some(tenths / 10 * POW10[e])
     } else {
-        Some(POW10[usize::from(SCALE.checked_sub(decimals)?)])
+        Some(tenths * POW10[e.checked_sub(1)?])
     }
 }
 
 /// A written number in units (mm or degrees), if it is exactly representable.
-pub(super) fn units(mantissa: i128, decimals: u8, inch: bool) -> Option<i128> {
-    mantissa.checked_mul(step(decimals, inch)?)
+pub(super) fn units(mantissa: i128, decimals: u8, unit: Unit) -> Option<i128> {
+    mantissa.checked_mul(step(decimals, unit)?)
 }
 
 /// A number with `decimals` decimals, read as `value` from `text`, in units: from the
 /// float where that is certainly exact (the common case, cheap), else from the text.
-pub(super) fn number_units(value: f64, decimals: u8, text: &[u8], inch: bool) -> Option<i128> {
+pub(super) fn number_units(value: f64, decimals: u8, text: &[u8], unit: Unit) -> Option<i128> {
     match scaled(value, decimals) {
-        Some(k) => units(k.into(), decimals, inch),
-        None => parse_decimal(text).and_then(|(k, d)| units(k, d, inch)),
+        Some(k) => units(k.into(), decimals, unit),
+        None => parse_decimal(text).and_then(|(k, d)| units(k, d, unit)),
     }
 }
 
@@ -87,11 +136,11 @@ pub(super) fn number_units(value: f64, decimals: u8, text: &[u8], inch: bool) ->
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) enum Position {
     /// The number `write_fixed(value, decimals)` prints (for a word read from a program:
-    /// the word), in inch or not.
+    /// the word), in its unit.
     Decimal {
         value: f64,
         decimals: u8,
-        inch: bool,
+        unit: Unit,
     },
     Units(i128),
 }
@@ -104,10 +153,10 @@ impl Position {
             Position::Decimal {
                 value,
                 decimals,
-                inch,
+                unit,
             } => round_to(value, decimals)
-                .and_then(|k| units(k, decimals, inch))
-                .unwrap_or_else(|| from_f64(if inch { value * 25.4 } else { value })),
+                .and_then(|k| units(k, decimals, unit))
+                .unwrap_or_else(|| from_f64(unit.to_mm(value))),
         }
     }
 
@@ -158,21 +207,21 @@ fn div_round(a: i128, b: i128) -> i128 {
 }
 
 /// The increment from the written position `from` (units) to `target` (in the word's own
-/// unit, inch or not) rounded to `decimals`, as (digits, decimals). The increment is exact
-/// when it can be: if `from` has finer digits than `decimals` (a word kept with more
-/// decimals, say) the increment gets as many as it needs, up to [`MAX_DECIMALS`]. Only a
-/// position mixed from inch and mm words may have none; then the nearest at `decimals`
-/// is taken, and the next block starts again from the exact position written.
-pub(super) fn increment(from: i128, target: f64, decimals: u8, inch: bool) -> Option<(i128, u8)> {
-    let t = units(round_to(target, decimals)?, decimals, inch)?;
+/// unit) rounded to `decimals`, as (digits, decimals). The increment is exact when it can
+/// be: if `from` has finer digits than `decimals` (a word kept with more decimals, say)
+/// the increment gets as many as it needs, up to [`MAX_DECIMALS`]. Only a position mixed
+/// from words of different units may have none; then the nearest at `decimals` is taken,
+/// and the next block starts again from the exact position written.
+pub(super) fn increment(from: i128, target: f64, decimals: u8, unit: Unit) -> Option<(i128, u8)> {
+    let t = units(round_to(target, decimals)?, decimals, unit)?;
     let delta = t - from;
     for d in decimals..=MAX_DECIMALS {
-        let s = step(d, inch)?;
+        let s = step(d, unit)?;
         if delta % s == 0 {
             return Some((delta / s, d));
         }
     }
-    Some((div_round(delta, step(decimals, inch)?), decimals))
+    Some((div_round(delta, step(decimals, unit)?), decimals))
 }
 
 /// Append `mantissa · 10^-decimals` with exactly `decimals` digits after the point (no
@@ -184,6 +233,11 @@ pub(super) fn write_digits(mantissa: i128, decimals: u8, out: &mut String) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    const INCH_UNIT: Unit = Unit {
+        inch: true,
+        diameter: false,
+    };
 
     #[test]
     fn decimals_are_read_exactly() {
@@ -199,25 +253,25 @@ mod tests {
     #[test]
     fn inch_words_are_exact_in_mm() {
         // 1.000001 inch = 25.4000254 mm.
-        assert_eq!(units(1_000_001, 6, true), Some(254_000_254_000_000));
-        assert_eq!(units(1, 12, true), Some(254));
-        assert_eq!(units(1, 13, true), None);
-        assert_eq!(units(1, 13, false), Some(1));
+        assert_eq!(units(1_000_001, 6, INCH_UNIT), Some(254_000_254_000_000));
+        assert_eq!(units(1, 12, INCH_UNIT), Some(254));
+        assert_eq!(units(1, 13, INCH_UNIT), None);
+        assert_eq!(units(1, 13, Unit::MM), Some(1));
     }
 
     #[test]
     fn increments_land_exactly_on_the_rounded_target() {
-        let from = units(100_005, 5, false).unwrap(); // 1.00005 written before
+        let from = units(100_005, 5, Unit::MM).unwrap(); // 1.00005 written before
         // Target 2.0 at 4 decimals: the increment needs the 5th decimal to land on 2.0000.
-        assert_eq!(increment(from, 2.0, 4, false), Some((99_995, 5)));
-        assert_eq!(increment(0, 0.123449, 4, false), Some((1234, 4)));
+        assert_eq!(increment(from, 2.0, 4, Unit::MM), Some((99_995, 5)));
+        assert_eq!(increment(0, 0.123449, 4, Unit::MM), Some((1234, 4)));
         assert_eq!(
-            increment(units(1, 4, false).unwrap(), -0.0001, 4, false),
+            increment(units(1, 4, Unit::MM).unwrap(), -0.0001, 4, Unit::MM),
             Some((-2, 4))
         );
         // A position written in mm, continued in inch: no exact inch increment, nearest.
-        let from = units(1, 0, false).unwrap(); // 1 mm
-        let (k, d) = increment(from, 1.0, 6, true).unwrap();
+        let from = units(1, 0, Unit::MM).unwrap(); // 1 mm
+        let (k, d) = increment(from, 1.0, 6, INCH_UNIT).unwrap();
         assert_eq!((k, d), (960_630, 6)); // 0.960630 inch + 1 mm = 25.400002 mm
     }
 
@@ -233,7 +287,7 @@ mod tests {
         ] {
             let (k, d) = parse_decimal(text.as_bytes()).unwrap();
             let x: f64 = text.parse().unwrap();
-            assert_eq!(to_f64(units(k, d, false).unwrap()), x, "{text}");
+            assert_eq!(to_f64(units(k, d, Unit::MM).unwrap()), x, "{text}");
         }
     }
 
@@ -242,20 +296,20 @@ mod tests {
     /// increments is at every step exactly the rounded target.
     #[test]
     fn a_million_increments_do_not_drift() {
-        let mut nominal: i128 = units(-1234567, 4, false).unwrap();
+        let mut nominal: i128 = units(-1234567, 4, Unit::MM).unwrap();
         let mut written: i128 = 0;
         let mut words = 0usize;
         for i in 0..1_000_000u32 {
-            nominal += units([13, -7, 3, 11][i as usize % 4], 4, false).unwrap();
+            nominal += units([13, -7, 3, 11][i as usize % 4], 4, Unit::MM).unwrap();
             let x = to_f64(nominal);
             let target = x + 0.004 * (x * 0.01).sin() + 1e-7 * f64::from(i % 97);
-            let (k, d) = increment(written, target, 4, false).unwrap();
+            let (k, d) = increment(written, target, 4, Unit::MM).unwrap();
             assert_eq!(d, 4);
-            written += units(k, d, false).unwrap();
+            written += units(k, d, Unit::MM).unwrap();
             words += usize::from(k != 0);
             assert_eq!(
                 written,
-                units(round_to(target, 4).unwrap(), 4, false).unwrap()
+                units(round_to(target, 4).unwrap(), 4, Unit::MM).unwrap()
             );
         }
         assert!(words > 900_000);

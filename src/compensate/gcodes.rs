@@ -43,6 +43,10 @@ pub enum GCode {
     DrillCycle,
     /// G98 (retract to the initial level) and G99 (to the R plane).
     CycleReturn,
+    /// G7: a lathe's X words are diameters.
+    Diameter,
+    /// G8: a lathe's X words are radii.
+    Radius,
     /// Modal settings that do not change where block ends are (planes, feed modes, path
     /// control, cancels of things we refuse).
     Harmless,
@@ -70,13 +74,13 @@ pub fn classify(code10: i64) -> GCode {
         800 => CancelCycle,
         730 | 810..=860 | 880 | 890 => DrillCycle,
         980 | 990 => CycleReturn,
+        70 => Diameter,
+        80 => Radius,
         // Planes, cutter compensation off, exact stop / blending, polar and scaling and
-        // rotation off, arc centre modes, feed modes, spindle modes, cycle return modes,
-        // lathe radius mode.
+        // rotation off, arc centre modes, feed modes, spindle modes.
         170 | 171 | 180 | 181 | 190 | 191 | 400 | 610 | 611 | 640 | 150 | 500 | 690 | 901 | 911
-        | 930 | 940 | 950 | 960 | 970 | 80 => Harmless,
+        | 930 | 940 | 950 | 960 | 970 => Harmless,
         50..=53 => Unsupported("spline interpolation (G5.x)"),
-        70 => Unsupported("lathe diameter mode (G7)"),
         100 => Unsupported("data setting (G10)"),
         330 | 331 => Unsupported("threading (G33)"),
         380..=389 => Unsupported("probing (G38.x)"),

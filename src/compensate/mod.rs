@@ -10,6 +10,7 @@ mod arcs;
 mod cycles;
 mod exact;
 mod gcodes;
+mod lathe;
 mod split;
 mod summary;
 mod tcp;
@@ -24,7 +25,7 @@ use crate::kinematics::{Kinematics, MAX_AXES, Model, SolveOptions};
 use crate::model::{AxisKind, ErrorModel, Machine};
 use crate::nc::number::{decimals_for, scaled};
 use crate::nc::{self, Edit, Token, TokenKind, Value};
-use exact::Position;
+use exact::{Position, Unit};
 use gcodes::GCode;
 use words::{BlockMotion, MoveKind};
 
@@ -71,24 +72,61 @@ impl Default for Options {
     }
 }
 
-/// A compensator for one machine, error model and tool chain.
+/// A compensator for one machine and error model: it follows a program through its tool
+/// chains (T words, where the machine file maps tools to chains) and, on a lathe, through
+/// turning and milling (the spindle's M codes and C words), with one [`Pass`] for each.
 #[derive(Debug, Clone)]
 pub struct Compensator<'m> {
     machine: &'m Machine,
-    kin: Kinematics,
+    /// The milling pass of every tool chain, in the machine file's order, then (on a
+    /// lathe) the turning pass of every chain.
+    passes: Vec<Pass<'m>>,
+    /// The tool chain a program starts in.
+    start: usize,
     zero_model: bool,
+}
+
+/// The pass for one configuration: one tool chain, milling or turning.
+#[derive(Debug, Clone)]
+struct Pass<'m> {
+    machine: &'m Machine,
+    kin: Kinematics,
     options: Options,
     /// Variable driven by each letter A..Z.
     var_of_letter: [Option<usize>; 26],
     decimals: (u8, u8),
-    /// Bit k: variable k is held (`Options::hold`).
+    /// Bit k: variable k is held (`Options::hold`; while turning also every axis but the
+    /// tool's X and Z).
     hold: u32,
+    /// Index into [`Machine::tool_chains`].
+    chain: usize,
+    /// Poses are turning poses: the spindle turns, or stands where the program has not
+    /// positioned it.
+    turning: bool,
+    /// Bit k: variable k is the spindle and this pass turns: where it stands does not
+    /// matter.
+    spindle: u32,
+    /// Bit k: variable k is held for turning (it does not move in a turning move, so a
+    /// move can be split without knowing it).
+    idle: u32,
+    /// The variables in the usual order of words in a block (X Y Z ... A B C): words added
+    /// at one place come out in that order.
+    write_order: Vec<usize>,
 }
 
 /// The program's modal state as the pass follows it.
 #[derive(Debug, Clone)]
 struct State {
     inch: bool,
+    /// G7: X words are diameters (on a lathe).
+    diameter: bool,
+    /// The pass blocks go through (index into [`Compensator::passes`]).
+    pass: usize,
+    /// What the lathe's spindle does.
+    spindle: lathe::Spindle,
+    /// What the program last told each machine axis, kept while its tool chain is not
+    /// active (by machine axis index).
+    parked: Vec<Option<lathe::Parked>>,
     /// G91: axis words are increments.
     incremental: bool,
     motion: Option<GCode>,
@@ -148,7 +186,7 @@ struct State {
 
 impl<'m> Compensator<'m> {
     pub fn new(machine: &'m Machine, errors: &ErrorModel, options: Options) -> crate::Result<Self> {
-        let chain = match &options.tool_chain {
+        let start = match &options.tool_chain {
             None => 0,
             Some(name) => machine.tool_chain(name).ok_or_else(|| {
                 Error::Usage(if machine.tool_chains.len() == 1 {
@@ -168,61 +206,40 @@ impl<'m> Compensator<'m> {
                 })
             })?,
         };
-        let kin =
-            Kinematics::new(machine, errors, chain).map_err(|e| Error::Usage(e.to_string()))?;
-        let mut var_of_letter = [None; 26];
-        for (var, &axis) in kin.axes().iter().enumerate() {
-            let letter = machine.axes[axis].word.to_ascii_uppercase();
-            if letter.is_ascii_uppercase() {
-                var_of_letter[(letter as u8 - b'A') as usize] = Some(var);
+        let modes: &[bool] = if machine.lathe.is_some() {
+            &[false, true]
+        } else {
+            &[false]
+        };
+        let mut passes = Vec::new();
+        for &turning in modes {
+            for chain in 0..machine.tool_chains.len() {
+                passes.push(Pass::new(machine, errors, &options, chain, turning)?);
             }
         }
-        let mut hold = 0;
         for name in &options.hold {
-            let var = kin.axes().iter().position(|&i| {
-                let axis = &machine.axes[i];
-                axis.name.eq_ignore_ascii_case(name)
-                    || axis.word.to_string().eq_ignore_ascii_case(name)
-            });
-            match var {
-                Some(v) => hold |= 1 << v,
-                None => {
-                    return Err(Error::Usage(format!(
-                        "cannot hold axis `{name}`: the active chains have no such axis"
-                    )));
-                }
+            if !passes.iter().any(|p| p.var_named(name).is_some()) {
+                return Err(Error::Usage(format!(
+                    "cannot hold axis `{name}`: the machine's chains have no such axis"
+                )));
             }
         }
         Ok(Compensator {
-            hold,
             machine,
-            kin,
+            passes,
+            start,
             zero_model: errors.is_zero(),
-            options,
-            var_of_letter,
-            decimals: (
-                decimals_for(machine.resolution.linear),
-                decimals_for(machine.resolution.rotary),
-            ),
         })
     }
 
+    /// The kinematics a program starts with: its tool chain's, milling.
     pub fn kinematics(&self) -> &Kinematics {
-        &self.kin
+        &self.passes[self.start].kin
     }
 
-    fn axis_name(&self, var: usize) -> &str {
-        &self.machine.axes[self.kin.axes()[var]].name
-    }
-
-    fn letter(&self, var: usize) -> u8 {
-        self.machine.axes[self.kin.axes()[var]]
-            .word
-            .to_ascii_uppercase() as u8
-    }
-
-    fn is_linear(&self, var: usize) -> bool {
-        self.kin.kind(var) == AxisKind::Linear
+    /// The tool chain a program starts in (index into the machine's tool chains).
+    pub fn start_chain(&self) -> usize {
+        self.start
     }
 
     /// Compensate the program `src` (named `path` in messages), appending the result to
@@ -269,9 +286,77 @@ impl<'m> Compensator<'m> {
             summary.lines = nc::lines(src).count();
             return (summary, Vec::new());
         }
-        let n = self.kin.len();
+        let mut state = self.start_state();
+        let mut tokens: Vec<Token> = Vec::new();
+        let mut edits: Vec<Edit> = Vec::new();
+        let mut errors: Vec<Diagnostic> = Vec::new();
+        for line in nc::lines(src) {
+            summary.lines += 1;
+            nc::parse_line(line.content, &mut tokens);
+            edits.clear();
+            let at = |offset: usize, message: String| {
+                Diagnostic::at(path, src, line.offset + offset, message)
+            };
+            let blocks = summary.motion_blocks;
+            let result = self
+                .select(&line, &tokens, &mut state, &mut summary, &at)
+                .and_then(|()| {
+                    let pass = &self.passes[state.pass];
+                    pass.block(&line, &tokens, &mut state, &mut edits, &mut summary, &at)
+                });
+            if self.passes[state.pass].turning {
+                summary.turning_blocks += summary.motion_blocks - blocks;
+            }
+            if let Err(d) = result {
+                errors.push(d);
+                if errors.len() >= self.passes[state.pass].options.max_errors {
+                    break;
+                }
+            }
+            let pass = &self.passes[state.pass];
+            let n = pass.kin.len();
+            if let Some(s) = summary.trace.as_mut().and_then(|t| t.last_mut())
+                && s.line == line.number
+            {
+                s.nominal = state.nominal[..n].to_vec();
+                s.written = state.emitted[..n].to_vec();
+                s.chain = pass.chain;
+            }
+            if let Some(number) = tokens.iter().find_map(|t| match &t.kind {
+                TokenKind::Word(w) if w.letter == b'N' => {
+                    let digits = &line.content[w.value_span.clone()];
+                    std::str::from_utf8(digits)
+                        .ok()?
+                        .parse::<u64>()
+                        .ok()
+                        .map(|v| (v, digits.len()))
+                }
+                _ => None,
+            }) {
+                state.last_n = Some(number);
+            }
+            nc::emit_line(&line, &mut edits, out);
+        }
+        (summary, errors)
+    }
+
+    /// The modal state at the program start.
+    fn start_state(&self) -> State {
+        let lathe = self.machine.lathe;
+        // A lathe's spindle starts free (not positioned): its passes turn.
+        let pass = self.start
+            + if lathe.is_some() {
+                self.machine.tool_chains.len()
+            } else {
+                0
+            };
+        let first = &self.passes[pass];
         let mut state = State {
             inch: false,
+            diameter: lathe.is_some_and(|l| l.diameter),
+            pass,
+            spindle: lathe::Spindle::Free,
+            parked: vec![None; self.machine.axes.len()],
             incremental: false,
             motion: None,
             rapid: false,
@@ -303,58 +388,122 @@ impl<'m> Compensator<'m> {
             optional_line: [0; MAX_AXES],
             corrected_line: [0; MAX_AXES],
         };
-        for v in 0..n {
-            state.decimals[v] = self.res_decimals(v, false);
+        for v in 0..first.kin.len() {
+            state.decimals[v] = first.res_decimals(v, Unit::MM);
         }
-        let mut tokens: Vec<Token> = Vec::new();
-        let mut edits: Vec<Edit> = Vec::new();
-        let mut errors: Vec<Diagnostic> = Vec::new();
-        for line in nc::lines(src) {
-            summary.lines += 1;
-            nc::parse_line(line.content, &mut tokens);
-            edits.clear();
-            let at = |offset: usize, message: String| {
-                Diagnostic::at(path, src, line.offset + offset, message)
+        state
+    }
+}
+
+impl<'m> Pass<'m> {
+    fn new(
+        machine: &'m Machine,
+        errors: &ErrorModel,
+        options: &Options,
+        chain: usize,
+        turning: bool,
+    ) -> crate::Result<Self> {
+        let usage = |e: crate::kinematics::KinematicsError| {
+            Error::Usage(if machine.tool_chains.len() == 1 {
+                e.to_string()
+            } else {
+                format!("tool chain `{}`: {e}", machine.tool_chains[chain].name)
+            })
+        };
+        let mut kin = Kinematics::new(machine, errors, chain).map_err(usage)?;
+        let mut var_of_letter = [None; 26];
+        for (var, &axis) in kin.axes().iter().enumerate() {
+            let letter = machine.axes[axis].word.to_ascii_uppercase();
+            if letter.is_ascii_uppercase() {
+                var_of_letter[(letter as u8 - b'A') as usize] = Some(var);
+            }
+        }
+        let mut pass = Pass {
+            machine,
+            kin: kin.clone(),
+            options: options.clone(),
+            var_of_letter,
+            decimals: (
+                decimals_for(machine.resolution.linear),
+                decimals_for(machine.resolution.rotary),
+            ),
+            hold: 0,
+            chain,
+            turning,
+            spindle: 0,
+            idle: 0,
+            write_order: Vec::new(),
+        };
+        let mut order: Vec<usize> = (0..kin.len()).collect();
+        order.sort_by_key(|&v| axis_order(pass.letter(v)));
+        pass.write_order = order;
+        for name in &options.hold {
+            if let Some(v) = pass.var_named(name) {
+                pass.hold |= 1 << v;
+            }
+        }
+        if let (true, Some(lathe)) = (turning, machine.lathe) {
+            // The machine file makes sure of all three.
+            let spindle = kin.axes().iter().position(|&i| i == lathe.spindle);
+            let x = var_of_letter[(b'X' - b'A') as usize];
+            let z = var_of_letter[(b'Z' - b'A') as usize];
+            let (Some(spindle), Some(x), Some(z)) = (spindle, x, z) else {
+                return Err(Error::Usage(format!(
+                    "tool chain `{}` cannot turn: it needs the spindle and X and Z axes",
+                    machine.tool_chains[chain].name
+                )));
             };
-            if let Err(d) = self.block(&line, &tokens, &mut state, &mut edits, &mut summary, &at) {
-                errors.push(d);
-                if errors.len() >= self.options.max_errors {
-                    break;
-                }
-            }
-            if let Some(s) = summary.trace.as_mut().and_then(|t| t.last_mut())
-                && s.line == line.number
-            {
-                s.nominal = state.nominal[..n].to_vec();
-                s.written = state.emitted[..n].to_vec();
-            }
-            if let Some(number) = tokens.iter().find_map(|t| match &t.kind {
-                TokenKind::Word(w) if w.letter == b'N' => {
-                    let digits = &line.content[w.value_span.clone()];
-                    std::str::from_utf8(digits)
-                        .ok()?
-                        .parse::<u64>()
-                        .ok()
-                        .map(|v| (v, digits.len()))
-                }
-                _ => None,
-            }) {
-                state.last_n = Some(number);
-            }
-            nc::emit_line(&line, &mut edits, out);
+            kin = kin.turning(spindle, x).map_err(usage)?;
+            pass.kin = kin;
+            pass.spindle = 1 << spindle;
+            pass.idle = (0..pass.kin.len())
+                .filter(|&v| v != x && v != z)
+                .fold(0, |m, v| m | 1 << v);
+            pass.hold |= pass.idle;
         }
-        (summary, errors)
+        Ok(pass)
     }
 
-    fn res_decimals(&self, var: usize, inch: bool) -> u8 {
-        if self.is_linear(var) {
-            if inch {
-                decimals_for(self.machine.resolution.linear / INCH)
-            } else {
-                self.decimals.0
-            }
-        } else {
+    /// The variable of the axis named `name` (or driven by that letter), if any.
+    fn var_named(&self, name: &str) -> Option<usize> {
+        self.kin.axes().iter().position(|&i| {
+            let axis = &self.machine.axes[i];
+            axis.name.eq_ignore_ascii_case(name) || axis.word.to_string().eq_ignore_ascii_case(name)
+        })
+    }
+
+    fn axis_name(&self, var: usize) -> &str {
+        &self.machine.axes[self.kin.axes()[var]].name
+    }
+
+    fn letter(&self, var: usize) -> u8 {
+        self.machine.axes[self.kin.axes()[var]]
+            .word
+            .to_ascii_uppercase() as u8
+    }
+
+    fn is_linear(&self, var: usize) -> bool {
+        self.kin.kind(var) == AxisKind::Linear
+    }
+
+    /// What variable `var`'s words are in, in the program's current modes.
+    fn unit(&self, var: usize, state: &State) -> Unit {
+        let linear = self.is_linear(var);
+        Unit {
+            inch: state.inch && linear,
+            diameter: state.diameter && linear && self.letter(var) == b'X',
+        }
+    }
+
+    /// The decimals that resolve variable `var` to the machine's resolution in words of
+    /// `unit`.
+    fn res_decimals(&self, var: usize, unit: Unit) -> u8 {
+        if !self.is_linear(var) {
             self.decimals.1
+        } else if unit == Unit::MM {
+            self.decimals.0
+        } else {
+            decimals_for(self.machine.resolution.linear / unit.to_mm(1.0))
         }
     }
 
@@ -438,14 +587,14 @@ impl<'m> Compensator<'m> {
             let Value::Number { value, decimals } = w.value else {
                 unreachable!()
             };
-            let inch = state.inch && self.is_linear(v);
+            let unit = self.unit(v, state);
             let bit = 1u32 << v;
             if state.incremental {
                 let u = exact::number_units(
                     value,
                     decimals,
                     &line.content[w.value_span.clone()],
-                    inch,
+                    unit,
                 )
                 .filter(|_| decimals <= exact::MAX_DECIMALS)
                 .ok_or_else(|| {
@@ -465,11 +614,11 @@ impl<'m> Compensator<'m> {
                 state.nominal_exact[v] = state.nominal_exact[v].add(u);
                 state.nominal[v] = exact::to_f64(state.nominal_exact[v].units());
             } else {
-                state.nominal[v] = if inch { value * INCH } else { value };
+                state.nominal[v] = unit.to_mm(value);
                 state.nominal_exact[v] = Position::Decimal {
                     value,
                     decimals,
-                    inch,
+                    unit,
                 };
                 // An optional block cannot make an axis known: with block delete on it
                 // does not run.
@@ -499,7 +648,7 @@ impl<'m> Compensator<'m> {
                 .with_code(TRAVEL_LIMIT));
             }
         }
-        if state.unknown != 0 {
+        if state.unknown & !self.spindle != 0 {
             // The pose cannot be evaluated: the block is written as it is, and what the
             // machine is told is what the program says.
             for (v, word) in axis_words.iter().enumerate().take(n) {
@@ -511,7 +660,7 @@ impl<'m> Compensator<'m> {
                 if let TokenKind::Word(w) = &tokens[i].kind
                     && let Value::Number { decimals, .. } = w.value
                 {
-                    state.decimals[v] = decimals.max(self.res_decimals(v, state.inch));
+                    state.decimals[v] = decimals.max(self.res_decimals(v, self.unit(v, state)));
                 }
                 state.programmed |= bit;
                 if state.incremental {
@@ -531,7 +680,7 @@ impl<'m> Compensator<'m> {
                 }
             }
             let unknown: Vec<&str> = (0..n)
-                .filter(|&v| state.unknown & (1 << v) != 0)
+                .filter(|&v| state.unknown & !self.spindle & (1 << v) != 0)
                 .map(|v| self.axis_name(v))
                 .collect();
             summary.note_uncompensated(line.number, &unknown);
@@ -612,7 +761,7 @@ impl<'m> Compensator<'m> {
         if let Some(tolerance) = &self.options.path
             && !state.rapid
             && !optional
-            && (0..n).all(|v| start_known & (1 << v) != 0)
+            && (0..n).all(|v| (start_known | self.idle) & (1 << v) != 0)
         {
             self.split_move(
                 tolerance, line, tokens, &previous, &sol.q, hold, state, edits, summary,

@@ -9,14 +9,14 @@
 //! decimals; in inverse-time feed (G93) each piece gets the F that keeps the move's time.
 
 use super::exact::{self, Position};
-use super::{Compensator, Edit, INCH, State, Summary, axis_order};
+use super::{Edit, Pass, State, Summary, axis_order};
 use crate::kinematics::MAX_AXES;
 use crate::kinematics::path::PathTolerance;
 use crate::nc::number::{same_text, write_fixed};
 use crate::nc::{self, Token, TokenKind, Value};
 use std::fmt::Write;
 
-impl Compensator<'_> {
+impl Pass<'_> {
     /// Split the current G1 move if its path needs it: push an edit inserting the new
     /// blocks before the line (and, in G93, one giving the block its share of F), and
     /// advance `state` to the last inserted point. `previous`: the nominal values before
@@ -91,15 +91,14 @@ impl Compensator<'_> {
                 }
             }
             for &v in &order {
-                let inch = state.inch && self.is_linear(v);
-                let to_units = |x: f64| if inch { x / INCH } else { x };
-                let value = to_units(piece.q[v]);
-                let d = state.decimals[v].max(self.res_decimals(v, state.inch));
+                let unit = self.unit(v, state);
+                let value = unit.from_mm(piece.q[v]);
+                let d = state.decimals[v].max(self.res_decimals(v, unit));
                 if state.incremental {
                     // The exact difference between two written absolute positions, as the
                     // block's own increments are written: no drift.
                     let d = d.min(exact::MAX_DECIMALS);
-                    let Some((k, e)) = exact::increment(state.written[v].units(), value, d, inch)
+                    let Some((k, e)) = exact::increment(state.written[v].units(), value, d, unit)
                     else {
                         continue;
                     };
@@ -108,23 +107,21 @@ impl Compensator<'_> {
                     }
                     let mut number = String::new();
                     exact::write_digits(k, e, &mut number);
-                    state.written[v] = state.written[v].add(exact::units(k, e, inch).unwrap_or(0));
+                    state.written[v] = state.written[v].add(exact::units(k, e, unit).unwrap_or(0));
                     state.emitted[v] = exact::to_f64(state.written[v].units());
                     words.push(style.letter(self.letter(v)) + &number);
                     continue;
                 }
-                if same_text(to_units(state.emitted[v]), value, d) {
+                if same_text(unit.from_mm(state.emitted[v]), value, d) {
                     continue;
                 }
                 let mut number = String::new();
                 write_fixed(value, d, &mut number);
-                state.emitted[v] = number
-                    .parse::<f64>()
-                    .map_or(piece.q[v], |x| if inch { x * INCH } else { x });
+                state.emitted[v] = number.parse::<f64>().map_or(piece.q[v], |x| unit.to_mm(x));
                 state.written[v] = Position::Decimal {
                     value,
                     decimals: d,
-                    inch,
+                    unit,
                 };
                 words.push(style.letter(self.letter(v)) + &number);
             }

@@ -34,6 +34,8 @@ pub struct Sample {
     /// active configuration (mm, degrees).
     pub nominal: Vec<f64>,
     pub written: Vec<f64>,
+    /// The tool chain the line ran in (index into the machine's tool chains).
+    pub chain: usize,
 }
 
 /// Counts and predicted errors of one run.
@@ -95,6 +97,13 @@ pub struct Summary {
     /// Axes moved by an incremental (G91) word before the program set them, from their
     /// home value 0, with the first line where that happened.
     pub incremental_from_home: Vec<(String, usize)>,
+    /// Blocks compensated as turning (the spindle turned or was not positioned): the tip's
+    /// radius and position along the spindle line.
+    pub turning_blocks: usize,
+    /// The tool chains the program ran in, in order of first use (machines with several).
+    pub chains: Vec<String>,
+    /// Some axes became unknown at M19 or at a change of tool chain.
+    pub lathe_unknown: bool,
     /// One sample per compensated line, when the run was traced
     /// ([`super::Compensator::run_traced`]).
     pub trace: Option<Vec<Sample>>,
@@ -179,6 +188,15 @@ impl Summary {
                 urad(self.singular_direction)
             ));
         }
+        if self.turning_blocks > 0 {
+            out.push(format!(
+                "{} compensated as turning (the spindle turned or was not positioned): radius and position along the spindle line, with X and Z",
+                count(self.turning_blocks, "block"),
+            ));
+        }
+        if self.chains.len() > 1 {
+            out.push(format!("tool chains used: {}", self.chains.join(", ")));
+        }
         if self.moves_split > 0 {
             out.push(format!(
                 "{} split to stay on the nominal path (first at line {}): {} added",
@@ -227,7 +245,7 @@ impl Summary {
                 ("axes", "were", "them")
             };
             out.push(format!(
-                "note: {} (first at line {}) {} written uncompensated: {noun} {} {verb} at a position nccomp does not know (after G28, G30 or G53) until a G90 block programmed {pronoun}",
+                "note: {} (first at line {}) {} written uncompensated: {noun} {} {verb} at a position nccomp does not know ({}) until a G90 block programmed {pronoun}",
                 count(self.uncompensated_blocks, "block"),
                 self.first_uncompensated,
                 if self.uncompensated_blocks == 1 {
@@ -235,7 +253,12 @@ impl Summary {
                 } else {
                     "were"
                 },
-                self.unknown_axes.join(", ")
+                self.unknown_axes.join(", "),
+                if self.lathe_unknown {
+                    "after G28, G30, G53, M19 or a change of tool chain"
+                } else {
+                    "after G28, G30 or G53"
+                }
             ));
         }
         for (axis, line) in &self.incremental_from_home {
@@ -303,6 +326,12 @@ impl Summary {
         match self.at_limit.iter_mut().find(|(a, _, _)| a == axis) {
             Some(entry) => entry.1 += 1,
             None => self.at_limit.push((axis.to_string(), 1, line)),
+        }
+    }
+
+    pub(crate) fn note_chain(&mut self, chain: &str) {
+        if !self.chains.iter().any(|c| c == chain) {
+            self.chains.push(chain.to_string());
         }
     }
 

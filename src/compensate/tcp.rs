@@ -7,15 +7,15 @@
 //! the controller's nominal solve of what is written lands the real machine on the pose
 //! (`kinematics::tcp`).
 
-use super::exact::Position;
-use super::{Compensator, Edit, INCH, State, Summary};
+use super::exact::{Position, Unit};
+use super::{Edit, INCH, Pass, State, Summary};
 use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Model};
 use crate::model::AxisKind;
 use crate::nc::number::{same_text, write_fixed};
 use crate::nc::{self, Token, TokenKind, Value};
 
-impl Compensator<'_> {
+impl Pass<'_> {
     /// The variables driven by the X, Y and Z words, which TCP programs use for the tip.
     pub(super) fn tip_vars(&self) -> Option<[usize; 3]> {
         let mut vars = [0; 3];
@@ -37,6 +37,22 @@ impl Compensator<'_> {
         at: &dyn Fn(usize, String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
         let code = if state.tcp_vector { "G43.5" } else { "G43.4" };
+        if self.turning {
+            return Err(at(
+                0,
+                format!(
+                    "{code} cannot be compensated while turning: the spindle turns or has not been positioned (position it with M19 or a C word first)"
+                ),
+            ));
+        }
+        if state.diameter {
+            return Err(at(
+                0,
+                format!(
+                    "{code} in diameter mode (G7) cannot be compensated (program it in radius mode, G8)"
+                ),
+            ));
+        }
         if self.tip_vars().is_none() {
             return Err(at(
                 0,
@@ -148,7 +164,7 @@ impl Compensator<'_> {
             match axis_words[v] {
                 Some(i) => {
                     let (old, decimals, span) = number(i);
-                    let d = decimals.max(self.res_decimals(v, state.inch));
+                    let d = decimals.max(self.res_decimals(v, Unit::inch(state.inch)));
                     state.decimals[v] = d;
                     if !same_text(old, value, d) {
                         write_fixed(value, d, &mut text);
@@ -162,7 +178,7 @@ impl Compensator<'_> {
                     }
                 }
                 None => {
-                    let d = state.decimals[v].max(self.res_decimals(v, state.inch));
+                    let d = state.decimals[v].max(self.res_decimals(v, Unit::inch(state.inch)));
                     if same_text(written, value, d) {
                         continue;
                     }
@@ -179,7 +195,7 @@ impl Compensator<'_> {
                     state.written[v] = Position::Decimal {
                         value: x,
                         decimals: state.decimals[v],
-                        inch: false,
+                        unit: Unit::MM,
                     };
                 }
             }

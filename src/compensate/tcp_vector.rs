@@ -10,16 +10,17 @@
 //! controller takes the one nearest the axes' current values.
 
 use super::exact::Position;
+use super::exact::Unit;
 use super::split::Style;
 use super::words::BlockMotion;
-use super::{Compensator, Edit, INCH, State, Summary};
+use super::{Edit, INCH, Pass, State, Summary};
 use crate::diag::Diagnostic;
 use crate::kinematics::{Model, Pose, SolveOptions};
 use crate::nc::number::{decimals_for, same_text, write_fixed};
 use crate::nc::{self, Token, TokenKind, Value};
 use nalgebra::Vector3;
 
-impl Compensator<'_> {
+impl Pass<'_> {
     /// One G43.5 block that moves.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn tcp_vector_block(
@@ -125,7 +126,7 @@ impl Compensator<'_> {
             match axis_words[v] {
                 Some(i) => {
                     let (old, decimals, span) = number(i);
-                    let d = decimals.max(self.res_decimals(v, state.inch));
+                    let d = decimals.max(self.res_decimals(v, Unit::inch(state.inch)));
                     state.decimals[v] = d;
                     if same_text(old, value, d) {
                         write_fixed(old, d, &mut text);
@@ -139,7 +140,7 @@ impl Compensator<'_> {
                     }
                 }
                 None => {
-                    let d = state.decimals[v].max(self.res_decimals(v, state.inch));
+                    let d = state.decimals[v].max(self.res_decimals(v, Unit::inch(state.inch)));
                     if same_text(to_units(state.tip_written[c]), value, d) {
                         continue;
                     }
@@ -210,7 +211,7 @@ impl Compensator<'_> {
             state.written[v] = Position::Decimal {
                 value,
                 decimals: state.decimals[v],
-                inch: false,
+                unit: Unit::MM,
             };
         }
         let (after, beyond) = self.kin.pose(Model::Actual, &ctrl[..n], state.length);

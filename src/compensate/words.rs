@@ -1,7 +1,7 @@
 //! Reading a block: which words it has, what they mean to the pass, and what it refuses.
 
 use super::gcodes::{self, GCode};
-use super::{Compensator, State, code_text};
+use super::{Pass, State, code_text};
 use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
 use crate::nc::{self, Token, TokenKind, Value};
@@ -38,7 +38,7 @@ pub(super) enum MoveKind {
     Cycle,
 }
 
-impl Compensator<'_> {
+impl Pass<'_> {
     /// Read one block: check that every word is understood, follow its modal words, and
     /// say which axis words it moves (`None`: it moves nothing).
     pub(super) fn read_block(
@@ -176,6 +176,28 @@ impl Compensator<'_> {
                         arc_code = Some(i);
                     }
                     GCode::CycleReturn => state.retract_to_initial = code10 == 980,
+                    g @ (GCode::Diameter | GCode::Radius) => {
+                        let diameter = g == GCode::Diameter;
+                        if diameter && self.machine.lathe.is_none() {
+                            return Err(at(
+                                t.span.start,
+                                format!(
+                                    "{} cannot be compensated: lathe diameter mode needs a [lathe] table in the machine file (the spindle that turns the part)",
+                                    code_text(line.content, t)
+                                ),
+                            ));
+                        }
+                        if optional && diameter != state.diameter {
+                            return Err(at(
+                                t.span.start,
+                                format!(
+                                    "{} in an optional block (/) cannot be compensated: whether the block runs would decide how every later X word is read (move it out of the optional block)",
+                                    code_text(line.content, t)
+                                ),
+                            ));
+                        }
+                        state.diameter = diameter;
+                    }
                     g @ (GCode::Absolute | GCode::Incremental) => {
                         let incremental = g == GCode::Incremental;
                         if optional && incremental != state.incremental {

@@ -1,7 +1,7 @@
 //! Writing a compensated block's axis words: positions in G90, increments in G91.
 
 use super::exact::{self, Position};
-use super::{Compensator, Edit, INCH, State, Summary};
+use super::{Edit, Pass, State, Summary};
 use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
 use crate::nc::number::{same_text, write_fixed};
@@ -18,7 +18,7 @@ fn number(t: &Token) -> (f64, u8, std::ops::Range<usize>) {
     (value, decimals, w.value_span.clone())
 }
 
-impl Compensator<'_> {
+impl Pass<'_> {
     /// G90: write each axis's compensated position `q` (mm, degrees); a word keeps its
     /// bytes when the new value prints the same, an axis the block omits gets a word when
     /// its value changes.
@@ -35,27 +35,25 @@ impl Compensator<'_> {
         summary: &mut Summary,
         at: &dyn Fn(usize, String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
-        for v in 0..self.kin.len() {
-            let inch = state.inch && self.is_linear(v);
-            let to_units = |x: f64| if inch { x / INCH } else { x };
-            let from_units = |x: f64| if inch { x * INCH } else { x };
-            let value = to_units(q[v]);
+        for &v in &self.write_order {
+            let unit = self.unit(v, state);
+            let value = unit.from_mm(q[v]);
             match axis_words[v] {
                 Some(i) => {
                     let (old, decimals, span) = number(&tokens[i]);
-                    let d = decimals.max(self.res_decimals(v, state.inch));
+                    let d = decimals.max(self.res_decimals(v, unit));
                     state.decimals[v] = d;
                     if same_text(old, value, d) {
-                        state.emitted[v] = from_units(old);
+                        state.emitted[v] = unit.to_mm(old);
                         state.written[v] = state.nominal_exact[v];
                     } else {
                         let mut text = String::new();
                         write_fixed(value, d, &mut text);
-                        state.emitted[v] = from_units(text.parse().unwrap_or(value));
+                        state.emitted[v] = unit.to_mm(text.parse().unwrap_or(value));
                         state.written[v] = Position::Decimal {
                             value,
                             decimals: d,
-                            inch,
+                            unit,
                         };
                         edits.push(Edit { at: span, text });
                         summary.words_changed += 1;
@@ -70,9 +68,9 @@ impl Compensator<'_> {
                     }
                 }
                 None => {
-                    let d = state.decimals[v].max(self.res_decimals(v, state.inch));
+                    let d = state.decimals[v].max(self.res_decimals(v, unit));
                     let unsettled = state.unsettled & (1 << v) != 0 && !optional;
-                    if unsettled || !same_text(to_units(state.emitted[v]), value, d) {
+                    if unsettled || !same_text(unit.from_mm(state.emitted[v]), value, d) {
                         if state.uncertain & (1 << v) != 0 && !optional {
                             let letter = self.letter(v) as char;
                             return Err(at(
@@ -91,11 +89,11 @@ impl Compensator<'_> {
                         }
                         let mut text = String::new();
                         write_fixed(value, d, &mut text);
-                        state.emitted[v] = from_units(text.parse().unwrap_or(value));
+                        state.emitted[v] = unit.to_mm(text.parse().unwrap_or(value));
                         state.written[v] = Position::Decimal {
                             value,
                             decimals: d,
-                            inch,
+                            unit,
                         };
                         edits.push(self.insertion(line.content, tokens, axis_words, v, &text));
                         summary.words_added += 1;
@@ -127,10 +125,10 @@ impl Compensator<'_> {
         summary: &mut Summary,
         at: &dyn Fn(usize, String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
-        for v in 0..self.kin.len() {
+        for &v in &self.write_order {
             let bit = 1u32 << v;
-            let inch = state.inch && self.is_linear(v);
-            let value = if inch { q[v] / INCH } else { q[v] };
+            let unit = self.unit(v, state);
+            let value = unit.from_mm(q[v]);
             let letter = self.letter(v) as char;
             // The axis's position depends on whether an optional block ran: an increment
             // from it cannot be right for both settings of block delete.
@@ -147,13 +145,13 @@ impl Compensator<'_> {
                 |i| tokens[i].span.start,
             );
             let d = match word {
-                Some(i) => number(&tokens[i]).1.max(self.res_decimals(v, state.inch)),
+                Some(i) => number(&tokens[i]).1.max(self.res_decimals(v, unit)),
                 None => state.decimals[v]
-                    .max(self.res_decimals(v, state.inch))
+                    .max(self.res_decimals(v, unit))
                     .min(exact::MAX_DECIMALS),
             };
             let (k, e) =
-                exact::increment(state.written[v].units(), value, d, inch).ok_or_else(|| {
+                exact::increment(state.written[v].units(), value, d, unit).ok_or_else(|| {
                     at(
                         col,
                         format!(
@@ -162,7 +160,7 @@ impl Compensator<'_> {
                         ),
                     )
                 })?;
-            let increment = exact::units(k, e, inch).unwrap_or(0);
+            let increment = exact::units(k, e, unit).unwrap_or(0);
             if let Some(at_line) = optional_line
                 && (word.is_some() || k != 0)
             {

@@ -139,9 +139,11 @@ fn iso_machine() -> Machine {
         tool_chains: vec![Chain {
             name: "tool".into(),
             axes: Vec::new(),
+            tools: Vec::new(),
         }],
         resolution: Resolution::default(),
         tool: Tool::default(),
+        lathe: None,
     }
 }
 

@@ -9,6 +9,7 @@
 pub mod path;
 mod solve;
 pub mod tcp;
+mod turning;
 
 pub use solve::{Solution, SolveOptions};
 
@@ -131,6 +132,8 @@ pub struct Kinematics {
     nominal: Chains,
     actual: Chains,
     reference_tool: f64,
+    /// Set: poses are turning poses (see [`Kinematics::turning`]).
+    turning: Option<turning::Turning>,
 }
 
 /// Problems setting up kinematics.
@@ -140,6 +143,10 @@ pub enum KinematicsError {
     NoSuchToolChain(String),
     #[error("the active configuration has {0} axes; at most {MAX_AXES} are supported")]
     TooManyAxes(usize),
+    #[error("variable {0} is not a rotary axis of the workpiece chain: it cannot be a spindle")]
+    NotASpindle(usize),
+    #[error("variable {0} is not a linear axis")]
+    NotLinear(usize),
 }
 
 impl Kinematics {
@@ -203,6 +210,7 @@ impl Kinematics {
             actual: build(errors),
             axes,
             reference_tool: machine.tool.length,
+            turning: None,
         })
     }
 
@@ -236,9 +244,14 @@ impl Kinematics {
         Vector3::new(0.0, 0.0, -(length - self.reference_tool))
     }
 
-    /// The pose at axis values `q` (mm, degrees) with the tool of length `length`.
+    /// The pose at axis values `q` (mm, degrees) with the tool of length `length` (a
+    /// turning pose for kinematics made by [`Kinematics::turning`]).
     /// The flag tells whether an error table was read beyond its ends.
     pub fn pose(&self, model: Model, q: &[f64], length: f64) -> (Pose, bool) {
+        if self.turning.is_some() {
+            let (pose, jac) = self.pose_and_jacobian(model, q, length);
+            return (pose, jac.beyond);
+        }
         let chains = self.chains(model);
         let mut beyond = false;
         let w = chains
@@ -327,6 +340,11 @@ impl Kinematics {
                     jac.axis_dir[k] = winv * dir;
                 }
             }
+        }
+        if let Some(turning) = &self.turning {
+            let (_, dir, point, _) = frames[turning.spindle];
+            let line = (w.inverse_transform_point(&point.into()).coords, winv * dir);
+            return turning.pose(&p, line, jac);
         }
         (Pose { p, o }, jac)
     }

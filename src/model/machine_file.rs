@@ -29,7 +29,7 @@
 //! Every problem is reported at its place in the file (`path:line:col: message`).
 
 use super::terms::{is_axis_name, or_list, suggest};
-use super::{Axis, AxisKind, Chain, Machine, Resolution, Tool};
+use super::{Axis, AxisKind, Chain, Lathe, Machine, Resolution, Tool};
 use crate::{Error, Result};
 use nalgebra::Vector3;
 use std::ops::Range;
@@ -61,6 +61,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
             "resolution",
             "axes",
             "tool",
+            "lathe",
         ],
         "the machine file",
     )?;
@@ -123,6 +124,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
             tool_chains.push(Chain {
                 name: "tool".to_string(),
                 axes: axes_of,
+                tools: Vec::new(),
             });
         }
         (None, Some((_, v))) => {
@@ -135,17 +137,42 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
                      `upper = [\"Z1\", \"X1\"]`",
                 ));
             }
+            // Where each tool number was given, for a second mention's message.
+            let mut tool_owner: Vec<(u32, String)> = Vec::new();
             for (key, value) in table.iter() {
                 let what = format!("tool chain `{}`", key.get_ref());
+                let (axes_value, tools) = match value.get_ref() {
+                    DeValue::Table(t) => {
+                        let place = format!("[tool_chains.{}]", key.get_ref());
+                        doc.check_keys(t, &["axes", "tools"], &place)?;
+                        let Some(a) = t.get("axes") else {
+                            return Err(doc.err(
+                                value.span(),
+                                format!(
+                                    "{place} has no `axes`: expected `axes = [\"Z1\", \"X1\"]`, \
+                                     its axes from the bed outward"
+                                ),
+                            ));
+                        };
+                        let tools = match t.get("tools") {
+                            Some(v) => tool_numbers(&doc, v, key.get_ref(), &mut tool_owner)?,
+                            None => Vec::new(),
+                        };
+                        (a, tools)
+                    }
+                    _ => (value, Vec::new()),
+                };
                 tool_chains.push(Chain {
                     name: key.get_ref().to_string(),
-                    axes: chain(&doc, value, &what, &axes, &mut used, &mut place)?,
+                    axes: chain(&doc, axes_value, &what, &axes, &mut used, &mut place)?,
+                    tools,
                 });
             }
         }
         (None, None) => tool_chains.push(Chain {
             name: "tool".to_string(),
             axes: Vec::new(),
+            tools: Vec::new(),
         }),
     }
 
@@ -206,6 +233,11 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         }
     }
 
+    let lathe = match root.get("lathe") {
+        Some(v) => Some(lathe(&doc, v, &axes, &workpiece_chain, &tool_chains)?),
+        None => None,
+    };
+
     Ok(Machine {
         name,
         axes,
@@ -213,7 +245,128 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         tool_chains,
         resolution,
         tool,
+        lathe,
     })
+}
+
+/// A chain's `tools = [1, 2, 3]`: T numbers, each in one chain only.
+fn tool_numbers(
+    doc: &Doc,
+    v: &Spanned<DeValue>,
+    chain: &str,
+    owner: &mut Vec<(u32, String)>,
+) -> Result<Vec<u32>> {
+    let what = format!("`tools` of tool chain `{chain}`, T numbers such as [1, 2, 3]");
+    let array = v.get_ref().as_array().ok_or_else(|| {
+        doc.err(
+            v.span(),
+            format!("expected {what}, found {}", describe(v.get_ref())),
+        )
+    })?;
+    let mut out = Vec::new();
+    for e in array.iter() {
+        let t = match e.get_ref() {
+            DeValue::Integer(i) => i64::from_str_radix(i.as_str(), i.radix())
+                .ok()
+                .and_then(|t| u32::try_from(t).ok())
+                .filter(|&t| t > 0),
+            _ => None,
+        };
+        let Some(t) = t else {
+            return Err(doc.err(
+                e.span(),
+                format!(
+                    "`{}` in the `tools` of tool chain `{chain}`: expected a T number, a \
+                     whole number from 1 (T0 selects no tool)",
+                    &doc.text[e.span()]
+                ),
+            ));
+        };
+        if let Some((_, other)) = owner.iter().find(|(n, _)| *n == t) {
+            let again = if other == chain { " twice" } else { "" };
+            return Err(doc.err(
+                e.span(),
+                format!(
+                    "tool T{t} is listed{again} in tool chain `{chain}` but already selects \
+                     tool chain `{other}`: expected each T number in one chain, once"
+                ),
+            ));
+        }
+        owner.push((t, chain.to_string()));
+        out.push(t);
+    }
+    Ok(out)
+}
+
+/// `[lathe]`: the spindle that turns the part, and whether X words start as diameters.
+fn lathe(
+    doc: &Doc,
+    v: &Spanned<DeValue>,
+    axes: &[Axis],
+    workpiece_chain: &[usize],
+    tool_chains: &[Chain],
+) -> Result<Lathe> {
+    let t = doc.table(v, "[lathe], a table with `spindle` and `diameter`")?;
+    doc.check_keys(t, &["spindle", "diameter"], "[lathe]")?;
+    let Some(s) = t.get("spindle") else {
+        return Err(doc.err(
+            v.span(),
+            "[lathe] has no `spindle`: expected `spindle = \"C\"`, the rotary axis of the \
+             workpiece chain that turns the part",
+        ));
+    };
+    let name = doc.string(s, "`spindle`")?;
+    let spindle = match axes.iter().position(|a| a.name == name) {
+        Some(i) if axes[i].kind == AxisKind::Rotary && workpiece_chain.contains(&i) => i,
+        Some(_) => {
+            return Err(doc.err(
+                s.span(),
+                format!(
+                    "`spindle = \"{name}\"`: expected a rotary axis of the workpiece chain \
+                     (the spindle turns the part)"
+                ),
+            ));
+        }
+        None => {
+            return Err(doc.err(
+                s.span(),
+                format!("`spindle = \"{name}\"`: there is no axis {name} ([axes.{name}])"),
+            ));
+        }
+    };
+    let diameter = match t.get("diameter") {
+        Some(d) => d.get_ref().as_bool().ok_or_else(|| {
+            doc.err(
+                d.span(),
+                format!(
+                    "`diameter`: expected true (X words are diameters at the start, as after \
+                     G7) or false (radii, as after G8), found {}",
+                    describe(d.get_ref())
+                ),
+            )
+        })?,
+        None => false,
+    };
+    // Turning moves the tool in X and Z: every turret needs both, as linear axes.
+    for chain in tool_chains {
+        for letter in ['X', 'Z'] {
+            let found = workpiece_chain
+                .iter()
+                .chain(&chain.axes)
+                .any(|&i| axes[i].word == letter && axes[i].kind == AxisKind::Linear);
+            if !found {
+                return Err(doc.err(
+                    v.span(),
+                    format!(
+                        "[lathe]: tool chain `{}` has no linear axis driven by {letter}: \
+                         expected every tool chain of a lathe to move the tool in X and Z",
+                        chain.name
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(Lathe { spindle, diameter })
 }
 
 fn resolution(doc: &Doc, v: &Spanned<DeValue>) -> Result<Resolution> {

@@ -42,10 +42,23 @@ pub struct Axis {
 }
 
 /// A named chain of axes from the bed outward (indices into [`Machine::axes`]).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Chain {
     pub name: String,
     pub axes: Vec<usize>,
+    /// The T numbers that select this chain in a program (machine file `tools`); empty:
+    /// T words do not select it.
+    pub tools: Vec<u32>,
+}
+
+/// A lathe's main spindle and how programs address it (machine file `[lathe]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lathe {
+    /// The rotary axis of the workpiece chain that turns the part (index into
+    /// [`Machine::axes`]).
+    pub spindle: usize,
+    /// X words are diameters at the program start, as after G7 (else radii, as after G8).
+    pub diameter: bool,
 }
 
 /// Output resolution: the smallest step written for linear (mm) and rotary (degree) words.
@@ -82,6 +95,8 @@ pub struct Machine {
     pub tool_chains: Vec<Chain>,
     pub resolution: Resolution,
     pub tool: Tool,
+    /// Set for a lathe or turning–milling centre: its spindle turns the part.
+    pub lathe: Option<Lathe>,
 }
 
 impl Machine {
@@ -91,6 +106,13 @@ impl Machine {
 
     pub fn tool_chain(&self, name: &str) -> Option<usize> {
         self.tool_chains.iter().position(|c| c.name == name)
+    }
+
+    /// The tool chain a T word selects, if the machine file maps that tool to one.
+    pub fn chain_of_tool(&self, tool: u32) -> Option<usize> {
+        self.tool_chains
+            .iter()
+            .position(|c| c.tools.contains(&tool))
     }
 }
 

@@ -54,6 +54,9 @@ pub struct Report {
     pub summary: Summary,
     /// The active configuration's axes, in variable order.
     pub axes: Vec<(String, AxisKind)>,
+    /// Its tool chain (index into the machine's): the maps and the corrections plot are
+    /// about the lines that ran in it.
+    pub chain: usize,
     pub maps: Vec<Map>,
     /// Why there is no map, when there is none.
     pub no_map: Option<String>,
@@ -86,7 +89,12 @@ pub fn build(
         .iter()
         .map(|&i| (machine.axes[i].name.clone(), machine.axes[i].kind))
         .collect();
-    let nominal: Vec<Vec<f64>> = samples.iter().map(|s| s.nominal.clone()).collect();
+    let chain = compensator.start_chain();
+    let nominal: Vec<Vec<f64>> = samples
+        .iter()
+        .filter(|s| s.chain == chain)
+        .map(|s| s.nominal.clone())
+        .collect();
     let (maps, no_map) = match Layout::new(machine, kin, &nominal) {
         None => (
             Vec::new(),
@@ -135,6 +143,7 @@ pub fn build(
         machine_name: machine.name.clone(),
         summary,
         axes,
+        chain,
         maps,
         no_map,
     })
@@ -149,6 +158,11 @@ impl Report {
     /// The page.
     pub fn html(&self) -> std::result::Result<String, String> {
         let samples = self.samples();
+        let own: Vec<compensate::Sample> = samples
+            .iter()
+            .filter(|s| s.chain == self.chain)
+            .cloned()
+            .collect();
         let mut figures = vec![
             Figure {
                 id: "tip-error".into(),
@@ -177,7 +191,7 @@ impl Report {
                        axis at the end of each compensated line; linear axes in µm, rotary \
                        axes in µrad (1000 µrad = 0.0573°)."
                     .into(),
-                svg: plots::corrections(samples, &self.axes)?,
+                svg: plots::corrections(&own, &self.axes)?,
             },
         ];
         let scale = self.maps.iter().map(Map::max_magnitude).fold(0.0, f64::max);

@@ -46,9 +46,11 @@ pub fn ac_trunnion(a_point: [f64; 3], c_point: [f64; 3]) -> Machine {
         tool_chains: vec![Chain {
             name: "tool".into(),
             axes: vec![2],
+            tools: Vec::new(),
         }],
         resolution: Resolution::default(),
         tool: Tool::default(),
+        lathe: None,
     }
 }
 
@@ -67,9 +69,11 @@ pub fn head_head(pivot: f64) -> Machine {
         tool_chains: vec![Chain {
             name: "tool".into(),
             axes: vec![0, 1, 2, 3, 4],
+            tools: Vec::new(),
         }],
         resolution: Resolution::default(),
         tool: Tool::default(),
+        lathe: None,
     }
 }
 
