@@ -4,7 +4,8 @@
 
 use nccomp::Error;
 use nccomp::compensate::{Compensator, Options};
-use nccomp::model::{ErrorModel, error_file, machine_file};
+use nccomp::model::{ErrorModel, Machine, error_file, machine_file};
+use nccomp::nc::{self, TokenKind};
 use std::path::{Path, PathBuf};
 
 fn corpus_files() -> Option<Vec<PathBuf>> {
@@ -29,17 +30,36 @@ fn corpus_files() -> Option<Vec<PathBuf>> {
     Some(files)
 }
 
-#[test]
-fn corpus_round_trips_with_a_zero_model_and_is_compensated_or_refused_otherwise() {
-    let Some(files) = corpus_files() else { return };
+/// Lathe programs: named so, or using a code only lathes have (G7/G8 diameter and radius
+/// mode, G33 spindle-synchronised moves, G70–G72 and G76 turning cycles).
+fn is_lathe_program(path: &Path, src: &[u8]) -> bool {
+    if path.to_string_lossy().to_lowercase().contains("lathe") {
+        return true;
+    }
+    let mut tokens = Vec::new();
+    nc::lines(src).any(|line| {
+        nc::parse_line(line.content, &mut tokens);
+        tokens.iter().any(|t| match &t.kind {
+            TokenKind::Word(w) if w.letter == b'G' => w
+                .number()
+                .is_some_and(|g| [7.0, 8.0, 33.0, 70.0, 71.0, 72.0, 76.0].contains(&g)),
+            _ => false,
+        })
+    })
+}
+
+/// Run `files` through a machine with a zero model and with its errors: (compensated,
+/// refused with line:col).
+fn run_corpus(files: &[PathBuf], name: &str) -> (usize, usize) {
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
-    let machine = machine_file::load(&fixtures.join("ac_trunnion.machine.toml")).unwrap();
-    let errors = error_file::load(&fixtures.join("ac_trunnion.errors.toml"), &machine).unwrap();
+    let machine: Machine =
+        machine_file::load(&fixtures.join(format!("{name}.machine.toml"))).unwrap();
+    let errors = error_file::load(&fixtures.join(format!("{name}.errors.toml")), &machine).unwrap();
     let zero = ErrorModel::zero(&machine);
     let real = Compensator::new(&machine, &errors, Options::default()).unwrap();
     let none = Compensator::new(&machine, &zero, Options::default()).unwrap();
     let (mut compensated, mut refused) = (0, 0);
-    for path in &files {
+    for path in files {
         let src = std::fs::read(path).unwrap();
         let name = path.display().to_string();
         let mut out = Vec::new();
@@ -64,9 +84,31 @@ fn corpus_round_trips_with_a_zero_model_and_is_compensated_or_refused_otherwise(
             Ok(Err(other)) => panic!("{name}: refused without a location: {other}"),
         }
     }
+    assert_eq!(compensated + refused, files.len());
+    (compensated, refused)
+}
+
+#[test]
+fn corpus_round_trips_with_a_zero_model_and_is_compensated_or_refused_otherwise() {
+    let Some(files) = corpus_files() else { return };
+    let (compensated, refused) = run_corpus(&files, "ac_trunnion");
     eprintln!(
         "corpus: {} files; zero model: all byte-identical; AC trunnion errors: {compensated} compensated, {refused} refused with line:col",
         files.len()
     );
-    assert_eq!(compensated + refused, files.len());
+}
+
+#[test]
+fn lathe_programs_of_the_corpus_round_trip_and_are_compensated_or_refused_on_a_lathe() {
+    let Some(files) = corpus_files() else { return };
+    let lathe: Vec<PathBuf> = files
+        .into_iter()
+        .filter(|p| is_lathe_program(p, &std::fs::read(p).unwrap()))
+        .collect();
+    assert!(!lathe.is_empty(), "the corpus has lathe programs");
+    let (compensated, refused) = run_corpus(&lathe, "lathe");
+    eprintln!(
+        "corpus: {} lathe programs; zero model: all byte-identical; lathe errors: {compensated} compensated, {refused} refused with line:col",
+        lathe.len()
+    );
 }

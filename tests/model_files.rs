@@ -916,3 +916,120 @@ fn errors_use_the_machines_axis_names() {
     let msg = errors_error_for(&m, "[location.X1]\nEC0X1 = 1\n");
     assert_diag(&msg, "e.toml:1:11", &["X1 is linear"]);
 }
+
+/// A small lathe: spindle C, one turret Z X (a `[tool_chains]` table with tools when
+/// `chains` is given).
+fn lathe_text(chains: &str, lathe: &str) -> String {
+    format!(
+        "workpiece_chain = [\"C\"]\n{chains}\n{lathe}\n\
+         [axes.C]\nkind = \"rotary\"\ndirection = [0, 0, -1]\npoint = [0, 0, 0]\n\n\
+         [axes.Z]\nkind = \"linear\"\ndirection = [0, 0, 1]\n\n\
+         [axes.X]\nkind = \"linear\"\ndirection = [1, 0, 0]\n\n\
+         [axes.X2]\nkind = \"linear\"\nword = \"X\"\ndirection = [-1, 0, 0]\n\n\
+         [axes.Z2]\nkind = \"linear\"\nword = \"Z\"\ndirection = [0, 0, 1]\n"
+    )
+}
+
+const TWO_TURRETS: &str = "[tool_chains]\nupper = [\"Z\", \"X\"]\nlower = [\"Z2\", \"X2\"]\n";
+
+#[test]
+fn tool_chains_list_their_tools_and_a_lathe_names_its_spindle() {
+    let text = lathe_text(
+        "[tool_chains.upper]\naxes = [\"Z\", \"X\"]\ntools = [1, 2]\n\n\
+         [tool_chains.lower]\naxes = [\"Z2\", \"X2\"]\ntools = [11]\n",
+        "[lathe]\nspindle = \"C\"\ndiameter = true\n",
+    );
+    let m = machine_file::parse(&text, "m.toml").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(m.tool_chains[0].tools, [1, 2]);
+    assert_eq!(m.chain_of_tool(11), Some(1));
+    assert_eq!(m.chain_of_tool(3), None);
+    let lathe = m.lathe.unwrap();
+    assert_eq!(m.axes[lathe.spindle].name, "C");
+    assert!(lathe.diameter);
+    // Chains as plain arrays (no tools) and no [lathe]: as before.
+    let m = machine_file::parse(&lathe_text(TWO_TURRETS, ""), "m.toml").unwrap();
+    assert!(m.tool_chains.iter().all(|c| c.tools.is_empty()) && m.lathe.is_none());
+}
+
+#[test]
+fn bad_tool_lists_are_reported_at_their_place() {
+    let msg = machine_error(&lathe_text(
+        "[tool_chains.upper]\naxes = [\"Z\", \"X\"]\ntools = [1, 2]\n\n\
+         [tool_chains.lower]\naxes = [\"Z2\", \"X2\"]\ntools = [3, 2]\n",
+        "",
+    ));
+    assert_diag(
+        &msg,
+        "m.toml:8:13",
+        &["tool T2", "already selects tool chain `upper`"],
+    );
+    let msg = machine_error(&lathe_text(
+        "[tool_chains.upper]\naxes = [\"Z\", \"X\"]\ntools = [0]\n\n\
+         [tool_chains.lower]\naxes = [\"Z2\", \"X2\"]\n",
+        "",
+    ));
+    assert_diag(
+        &msg,
+        "m.toml:4:10",
+        &["expected a T number", "T0 selects no tool"],
+    );
+    let msg = machine_error(&lathe_text(
+        "[tool_chains.upper]\naxis = [\"Z\", \"X\"]\n\n\
+         [tool_chains.lower]\naxes = [\"Z2\", \"X2\"]\n",
+        "",
+    ));
+    assert_diag(
+        &msg,
+        "m.toml:3:1",
+        &[
+            "unknown key `axis` in [tool_chains.upper]",
+            "did you mean `axes`?",
+        ],
+    );
+    let msg = machine_error(&lathe_text(
+        "[tool_chains.upper]\ntools = [1]\n\n[tool_chains.lower]\naxes = [\"Z2\", \"X2\"]\n",
+        "",
+    ));
+    assert_diag(&msg, "m.toml:2:1", &["[tool_chains.upper] has no `axes`"]);
+}
+
+#[test]
+fn bad_lathe_tables_are_reported_at_their_place() {
+    let msg = machine_error(&lathe_text(TWO_TURRETS, "[lathe]\nspindle = \"X\"\n"));
+    assert_diag(
+        &msg,
+        "m.toml:7:11",
+        &["`spindle = \"X\"`", "a rotary axis of the workpiece chain"],
+    );
+    let msg = machine_error(&lathe_text(TWO_TURRETS, "[lathe]\nspindle = \"S\"\n"));
+    assert_diag(&msg, "m.toml:7:11", &["there is no axis S"]);
+    let msg = machine_error(&lathe_text(TWO_TURRETS, "[lathe]\ndiameter = true\n"));
+    assert_diag(&msg, "m.toml:6:1", &["[lathe] has no `spindle`"]);
+    let msg = machine_error(&lathe_text(
+        TWO_TURRETS,
+        "[lathe]\nspindle = \"C\"\ndiameter = \"yes\"\n",
+    ));
+    assert_diag(
+        &msg,
+        "m.toml:8:12",
+        &["`diameter`: expected true", "found a string"],
+    );
+    let msg = machine_error(&lathe_text(TWO_TURRETS, "[lathe]\nspindel = \"C\"\n"));
+    assert_diag(&msg, "m.toml:7:1", &["unknown key `spindel` in [lathe]"]);
+    // A turret without Z cannot turn.
+    let msg = machine_error(
+        &lathe_text(
+            "[tool_chains]\nupper = [\"Z\", \"X\"]\nlower = [\"X2\"]\n",
+            "[lathe]\nspindle = \"C\"\n",
+        )
+        .replace(
+            "[axes.Z2]\nkind = \"linear\"\nword = \"Z\"\ndirection = [0, 0, 1]\n",
+            "",
+        ),
+    );
+    assert_diag(
+        &msg,
+        "m.toml:6:1",
+        &["tool chain `lower` has no linear axis driven by Z"],
+    );
+}
