@@ -465,12 +465,14 @@ struct PassArgs {
     /// Error file (TOML): the machine's measured errors (a calibration).
     #[arg(long, short = 'e', value_name = "ERRORS.toml")]
     errors: PathBuf,
-    /// Tool chain to use on machines with several (e.g. `upper` or `lower` turret); the
-    /// machine file's first by default.
+    /// Tool chain the program starts in on machines with several (e.g. `upper` or `lower`
+    /// turret); the machine file's first by default. T words switch chains where the
+    /// machine file lists each chain's `tools`.
     #[arg(long, value_name = "NAME")]
     tool_chain: Option<String>,
-    /// Axes that keep their programmed values, comma-separated (e.g. `C` for a lathe
-    /// spindle that turns rather than positions). Other axes take up the correction.
+    /// Axes that keep their programmed values, comma-separated (e.g. `C` for a spindle
+    /// that turns, on a machine file without a [lathe] table). Other axes take up the
+    /// correction.
     #[arg(long, value_name = "AXES", value_delimiter = ',')]
     hold: Vec<String>,
     /// Write blocks whose compensated values leave the travel limits anyway, with a

@@ -106,6 +106,9 @@ fn lathe_programs_of_the_corpus_round_trip_and_are_compensated_or_refused_on_a_l
         .filter(|p| is_lathe_program(p, &std::fs::read(p).unwrap()))
         .collect();
     assert!(!lathe.is_empty(), "the corpus has lathe programs");
+    for path in &lathe {
+        eprintln!("lathe program: {}", path.display());
+    }
     let (compensated, refused) = run_corpus(&lathe, "lathe");
     eprintln!(
         "corpus: {} lathe programs; zero model: all byte-identical; lathe errors: {compensated} compensated, {refused} refused with line:col",

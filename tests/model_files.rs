@@ -5,12 +5,13 @@ use nalgebra::Vector3;
 use nccomp::model::{AxisKind, ErrorModel, Machine, error_file, machine_file};
 use std::path::{Path, PathBuf};
 
-const MACHINES: [&str; 5] = [
+const MACHINES: [&str; 6] = [
     "ac_trunnion",
     "bc_trunnion",
     "head_head",
     "grinder",
     "mill_turn",
+    "lathe",
 ];
 
 fn fixture(name: &str) -> PathBuf {

@@ -138,7 +138,7 @@ impl Pass<'_> {
         for (v, x) in end.iter_mut().enumerate().take(n) {
             let unit = self.unit(v, state);
             let d = state.decimals[v].max(self.res_decimals(v, unit));
-            if let Some(k) = scaled(unit.from_mm(*x), d) {
+            if let Some(k) = scaled(unit.of_mm(*x), d) {
                 *x = unit.to_mm(k as f64 / 10f64.powi(d.into()));
             }
         }

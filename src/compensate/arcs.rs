@@ -272,8 +272,8 @@ impl Pass<'_> {
             }
             for &v in &order {
                 let unit = self.unit(v, state);
-                let value = unit.from_mm(sol.q[v]);
-                let emitted = unit.from_mm(state.emitted[v]);
+                let value = unit.of_mm(sol.q[v]);
+                let emitted = unit.of_mm(state.emitted[v]);
                 let d = state.decimals[v].max(self.res_decimals(v, unit));
                 if same_text(emitted, value, d) {
                     continue;

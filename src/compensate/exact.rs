@@ -100,7 +100,7 @@ impl Unit {
     }
 
     /// A value in mm (degrees) as a number of this unit.
-    pub fn from_mm(self, x: f64) -> f64 {
+    pub fn of_mm(self, x: f64) -> f64 {
         let x = if self.diameter { x * 2.0 } else { x };
         if self.inch { x / INCH } else { x }
     }
@@ -257,6 +257,27 @@ mod tests {
         assert_eq!(units(1, 12, INCH_UNIT), Some(254));
         assert_eq!(units(1, 13, INCH_UNIT), None);
         assert_eq!(units(1, 13, Unit::MM), Some(1));
+    }
+
+    #[test]
+    fn diameter_words_are_exact_in_mm() {
+        let d = Unit {
+            inch: false,
+            diameter: true,
+        };
+        let inch_d = Unit {
+            inch: true,
+            diameter: true,
+        };
+        // 0.0001 on a diameter is 0.00005 mm; 0.000001 inch on a diameter 0.0000127 mm.
+        assert_eq!(units(1, 4, d), Some(500_000_000));
+        assert_eq!(units(1, 6, inch_d), Some(127_000_000));
+        assert_eq!(units(1, 13, d), None);
+        assert_eq!((d.to_mm(50.0), d.of_mm(25.0)), (25.0, 50.0));
+        assert_eq!(inch_d.to_mm(2.0), 25.4);
+        // From X60. to X40.0001 in G91: the diameter's increment, exactly.
+        let from = units(600_000, 4, d).unwrap();
+        assert_eq!(increment(from, 40.0001, 4, d), Some((-199_999, 4)));
     }
 
     #[test]

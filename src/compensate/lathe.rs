@@ -197,11 +197,11 @@ impl Compensator<'_> {
         }
         if let Some(t) = spindle_word {
             if let Spindle::Turning(on) = spindle {
+                let letter = spindle_letter.map_or('C', char::from);
                 return Err(at(
                     t.span.start,
                     format!(
-                        "{} positions the spindle, but it turns (M3/M4 at line {on}): expected M5 or M19 before the spindle is positioned",
-                        t_letter(line.content, t)
+                        "{letter} positions the spindle, but it turns (M3/M4 at line {on}): expected M5 or M19 before the spindle is positioned"
                     ),
                 ));
             }
@@ -287,11 +287,4 @@ impl Compensator<'_> {
         state.unsettled &= !beyond;
         unknown
     }
-}
-
-/// The letter of a word, uppercase (for messages).
-fn t_letter(content: &[u8], t: &Token) -> char {
-    content
-        .get(t.span.start)
-        .map_or('C', |b| b.to_ascii_uppercase() as char)
 }

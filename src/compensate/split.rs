@@ -92,7 +92,7 @@ impl Pass<'_> {
             }
             for &v in &order {
                 let unit = self.unit(v, state);
-                let value = unit.from_mm(piece.q[v]);
+                let value = unit.of_mm(piece.q[v]);
                 let d = state.decimals[v].max(self.res_decimals(v, unit));
                 if state.incremental {
                     // The exact difference between two written absolute positions, as the
@@ -112,7 +112,7 @@ impl Pass<'_> {
                     words.push(style.letter(self.letter(v)) + &number);
                     continue;
                 }
-                if same_text(unit.from_mm(state.emitted[v]), value, d) {
+                if same_text(unit.of_mm(state.emitted[v]), value, d) {
                     continue;
                 }
                 let mut number = String::new();

@@ -37,7 +37,7 @@ impl Pass<'_> {
     ) -> Result<(), Diagnostic> {
         for &v in &self.write_order {
             let unit = self.unit(v, state);
-            let value = unit.from_mm(q[v]);
+            let value = unit.of_mm(q[v]);
             match axis_words[v] {
                 Some(i) => {
                     let (old, decimals, span) = number(&tokens[i]);
@@ -70,7 +70,7 @@ impl Pass<'_> {
                 None => {
                     let d = state.decimals[v].max(self.res_decimals(v, unit));
                     let unsettled = state.unsettled & (1 << v) != 0 && !optional;
-                    if unsettled || !same_text(unit.from_mm(state.emitted[v]), value, d) {
+                    if unsettled || !same_text(unit.of_mm(state.emitted[v]), value, d) {
                         if state.uncertain & (1 << v) != 0 && !optional {
                             let letter = self.letter(v) as char;
                             return Err(at(
@@ -128,7 +128,7 @@ impl Pass<'_> {
         for &v in &self.write_order {
             let bit = 1u32 << v;
             let unit = self.unit(v, state);
-            let value = unit.from_mm(q[v]);
+            let value = unit.of_mm(q[v]);
             let letter = self.letter(v) as char;
             // The axis's position depends on whether an optional block ran: an increment
             // from it cannot be right for both settings of block delete.
