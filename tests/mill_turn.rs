@@ -204,7 +204,9 @@ fn check_turning(
 ) -> Result<(), TestCaseError> {
     let zero = ErrorModel::zero(machine);
     let spindle = machine.lathe.unwrap().spindle;
-    for (chain, nominal, written) in run(machine, errors, program) {
+    let ends = run(machine, errors, program);
+    prop_assert!(!ends.is_empty());
+    for (chain, nominal, written) in ends {
         let ideal = Kinematics::new(machine, &zero, chain).unwrap();
         let real = Kinematics::new(machine, errors, chain).unwrap();
         let p = ideal
@@ -266,7 +268,9 @@ fn check_milling(
 ) -> Result<(), TestCaseError> {
     let zero = ErrorModel::zero(machine);
     let b = machine.axis_index("B").unwrap();
-    for (chain, nominal, written) in run(machine, errors, program) {
+    let ends = run(machine, errors, program);
+    prop_assert!(!ends.is_empty());
+    for (chain, nominal, written) in ends {
         let ideal = Kinematics::new(machine, &zero, chain).unwrap();
         let real = Kinematics::new(machine, errors, chain).unwrap();
         let (target, _) = ideal.pose(Model::Nominal, &values(&ideal, &nominal), 0.0);
