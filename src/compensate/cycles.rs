@@ -205,9 +205,9 @@ impl Pass<'_> {
             summary,
             at,
         )?;
-        cycle.bottom_written = Some(zu.from_mm(state.emitted[vz]));
+        cycle.bottom_written = Some(zu.of_mm(state.emitted[vz]));
         // R: rewritten where it is, added where the modal value no longer fits.
-        let r_value = zu.from_mm(r_sol.q[vz]);
+        let r_value = zu.of_mm(r_sol.q[vz]);
         let d = self.res_decimals(vz, zu);
         match motion.arc_words[3] {
             Some(i) => {
@@ -273,7 +273,7 @@ impl Pass<'_> {
         state.nominal[vz] = z_nominal;
         state.emitted[vz] = z_emitted;
         state.written[vz] = super::exact::Position::Decimal {
-            value: zu.from_mm(z_emitted),
+            value: zu.of_mm(z_emitted),
             decimals: state.decimals[vz],
             unit: zu,
         };
