@@ -254,7 +254,6 @@ impl Compensator<'_> {
         }
         state.spindle = spindle;
         state.pass = pass;
-        summary.note_chain(&self.machine.tool_chains[chain].name);
         Ok(())
     }
 

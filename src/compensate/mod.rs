@@ -304,8 +304,12 @@ impl<'m> Compensator<'m> {
                     let pass = &self.passes[state.pass];
                     pass.block(&line, &tokens, &mut state, &mut edits, &mut summary, &at)
                 });
-            if self.passes[state.pass].turning {
-                summary.turning_blocks += summary.motion_blocks - blocks;
+            let pass = &self.passes[state.pass];
+            if summary.motion_blocks > blocks {
+                if pass.turning {
+                    summary.turning_blocks += summary.motion_blocks - blocks;
+                }
+                summary.note_chain(&self.machine.tool_chains[pass.chain].name);
             }
             if let Err(d) = result {
                 errors.push(d);

@@ -100,7 +100,7 @@ pub struct Summary {
     /// Blocks compensated as turning (the spindle turned or was not positioned): the tip's
     /// radius and position along the spindle line.
     pub turning_blocks: usize,
-    /// The tool chains the program ran in, in order of first use (machines with several).
+    /// The tool chains compensated blocks ran in, in order of first use.
     pub chains: Vec<String>,
     /// Some axes became unknown at M19 or at a change of tool chain.
     pub lathe_unknown: bool,
