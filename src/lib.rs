@@ -10,6 +10,7 @@
 pub mod budget;
 pub mod check;
 pub mod compensate;
+pub mod contour;
 pub mod diag;
 pub mod identify;
 pub mod import;

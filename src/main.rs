@@ -124,6 +124,60 @@ The quasi-static errors act while cutting and probing, the dynamic ones only whi
 See docs/identify.md.\n\nExit status: 0 on success, 2 when an input is unusable."
     )]
     SimulateCut(SimulateCutArgs),
+    /// Contour error of a program from a trace of the machine's axes (paper 003).
+    #[command(
+        long_about = "Contour error of a five-axis program from a measured trace (paper 003). \
+The program is the reference path, followed on the nominal machine as the controller \
+interpolates it; the trace holds the axis positions the machine reached (time, X, Y, Z, A, C, \
+... in mm and degrees, columns named by the machine file's axes, optional commanded \
+positions X_cmd, ...). For every reference point: the tool-tip contour error (the shortest \
+distance to the actual path) and the tool-axis contour error (the angle between the tool \
+directions there), both in the workpiece frame. See docs/contour.md.",
+        after_help = "Example:\n  nccomp contour -m fixtures/ac_trunnion.machine.toml fixtures/s_shape.nc \\\n      --trace fixtures/s_shape.trace.csv -o points.csv --plot contour.svg\n\n\
+Exit status: 0 on success, 2 when an input is unusable (the message names file:line:column). \
+Outputs are written only on success, and atomically."
+    )]
+    Contour(ContourArgs),
+}
+
+#[derive(clap::Args)]
+struct ContourArgs {
+    /// Machine file (TOML).
+    #[arg(long, short = 'm', value_name = "MACHINE.toml")]
+    machine: PathBuf,
+    /// The NC program the trace was recorded with.
+    #[arg(value_name = "PROGRAM")]
+    program: PathBuf,
+    /// The trace (CSV: time, one column per axis, optional <axis>_cmd columns).
+    #[arg(long, short = 't', value_name = "TRACE.csv")]
+    trace: PathBuf,
+    /// Write the error at every reference point as CSV (`-`: standard output, the
+    /// summary then goes to standard error).
+    #[arg(long, short = 'o', value_name = "POINTS.csv")]
+    output: Option<PathBuf>,
+    /// Write an SVG plot of both errors along the path.
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
+    /// Sample the program every this many mm of tool tip travel (default: as densely as
+    /// the trace, the median distance between its samples).
+    #[arg(long, value_name = "MM")]
+    step: Option<f64>,
+    /// Margin of the search window along the actual path, mm (default: the step).
+    #[arg(long, value_name = "MM")]
+    window: Option<f64>,
+    /// How close (mm) the trace must come to where the program starts (and restarts
+    /// after G28/G53) to be taken as its trace.
+    #[arg(long, value_name = "MM", default_value_t = 1.0)]
+    capture: f64,
+    /// Report points on rapid (G0) moves too.
+    #[arg(long)]
+    rapids: bool,
+    /// Tool chain on machines with several.
+    #[arg(long, value_name = "NAME")]
+    tool_chain: Option<String>,
+    /// Print no summary.
+    #[arg(long, short = 'q')]
+    quiet: bool,
 }
 
 #[derive(clap::Args)]
@@ -529,6 +583,7 @@ fn main() -> ExitCode {
         Command::Errors(ErrorsCommand::Convert(args)) => convert(&args).map(|()| Status::Clean),
         Command::Identify(args) => identify(&args).map(|()| Status::Clean),
         Command::SimulateCut(args) => simulate_cut(&args).map(|()| Status::Clean),
+        Command::Contour(args) => contour(&args).map(|()| Status::Clean),
     };
     match result {
         Ok(status) => ExitCode::from(status.exit_code()),
@@ -704,6 +759,67 @@ fn convert(args: &ConvertArgs) -> nccomp::Result<()> {
         eprintln!("note: {note}");
     }
     eprintln!("{}", converted.summary);
+    Ok(())
+}
+
+fn contour(args: &ContourArgs) -> nccomp::Result<()> {
+    use nccomp::contour::{self, plot, report};
+    for (name, v) in [
+        ("--step", args.step),
+        ("--window", args.window),
+        ("--capture", Some(args.capture)),
+    ] {
+        if let Some(v) = v
+            && !(v > 0.0 && v.is_finite())
+        {
+            return Err(nccomp::Error::Usage(format!(
+                "{name} {v}: expected a positive length in mm"
+            )));
+        }
+    }
+    let machine = machine_file::load(&args.machine)?;
+    let (program, program_name) = read_file(&args.program)?;
+    let (trace, trace_name) = read_file(&args.trace)?;
+    let options = contour::Options {
+        tool_chain: args.tool_chain.clone(),
+        step: args.step,
+        window: args.window,
+        capture: args.capture,
+        rapids: args.rapids,
+        ..contour::Options::default()
+    };
+    let a = contour::analyse(
+        &machine,
+        (&program_name, &program),
+        (&trace_name, &trace),
+        &options,
+    )?;
+    let machine_name = machine
+        .name
+        .clone()
+        .unwrap_or(args.machine.display().to_string());
+    if let Some(path) = &args.plot {
+        let title = format!("Contour error of {program_name} on {machine_name} ({trace_name})");
+        let svg = plot::svg(&a, &title).map_err(nccomp::Error::Usage)?;
+        write_atomically(path, svg.as_bytes())?;
+    }
+    let csv_to_stdout = args.output.is_some() && is_std(&args.output);
+    if let Some(path) = &args.output {
+        let csv = report::points_csv(&a, args.rapids);
+        if csv_to_stdout {
+            print(&csv)?;
+        } else {
+            write_atomically(path, csv.as_bytes())?;
+        }
+    }
+    if !args.quiet {
+        let text = report::summary_text(&a, &program_name, &trace_name, &machine_name);
+        if csv_to_stdout {
+            eprint!("{text}");
+        } else {
+            print(&text)?;
+        }
+    }
     Ok(())
 }
 

@@ -22,8 +22,8 @@ use std::f64::consts::TAU;
 
 /// An arc in axis space: a (possibly spiral) circle in the plane of variables `va`, `vb`,
 /// all other variables linear from start to end.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct ArcPath {
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArcPath {
     pub va: usize,
     pub vb: usize,
     pub centre: (f64, f64),

@@ -87,117 +87,23 @@ impl Pass<'_> {
         {
             return refuse("in inverse-time feed (G93) an arc needs its own F word");
         }
-        if state.unknown & !self.spindle != 0 {
-            return refuse(
-                "the arc starts where an axis is at a place nccomp does not know (after G28, G30, G53, M19 or a change of tool chain)",
-            );
-        }
-        if state.diameter && state.arc_absolute {
-            return refuse(
-                "absolute arc centres (G90.1) in diameter mode (G7) are not supported (program the centre incrementally, G91.1)",
-            );
-        }
-        let Some((plane, centre_letters)) = plane_letters(state.plane) else {
-            return refuse("arcs in a U/V/W plane (G17.1, G18.1, G19.1) are not supported");
-        };
-        let var = |letter: u8| {
-            self.var_of_letter[(letter - b'A') as usize]
-                .filter(|&v| self.kin.kind(v) == AxisKind::Linear)
-        };
-        let (Some(va), Some(vb)) = (var(plane[0]), var(plane[1])) else {
-            return refuse("the machine has no linear axes for this arc plane");
-        };
-        // The arc's start in its plane must be known; other axes the program never set are
-        // taken at home (0), as for straight moves, and the summary says so.
-        if (state.programmed & (1 << va)) == 0 || (state.programmed & (1 << vb)) == 0 {
-            return refuse("the program has not yet set where the arc starts in its plane");
-        }
+        let path = self
+            .arc_path(tokens, motion, clockwise, state)
+            .map_err(|why| at(col, format!("this arc cannot be compensated: {why}")))?;
         for (v, word) in axis_words.iter().enumerate().take(n) {
             // Axes turning holds are not corrected.
             if state.programmed & (1 << v) == 0 && word.is_none() && self.idle & (1 << v) == 0 {
                 summary.note_assumed_home(self.axis_name(v), line.number);
             }
-        }
-        let number = |i: usize| match &tokens[i].kind {
-            TokenKind::Word(w) => match w.value {
-                Value::Number { value, .. } => value,
-                _ => 0.0,
-            },
-            _ => 0.0,
-        };
-        let mm = |x: f64| if state.inch { x * INCH } else { x };
-        // Start and end of the move, nominal.
-        let start = state.nominal;
-        let mut end = state.nominal;
-        for v in 0..n {
-            if let Some(i) = axis_words[v] {
-                end[v] = self.unit(v, state).to_mm(number(i));
+            if word.is_some() {
                 state.programmed |= 1 << v;
             }
         }
-        let (a0, b0, a1, b1) = (start[va], start[vb], end[va], end[vb]);
-        // The centre.
-        let word =
-            |letter: u8| motion.arc_words[b"IJKR".iter().position(|&l| l == letter).unwrap_or(0)];
-        let centre = if let Some(ri) = motion.arc_words[3] {
-            let r = mm(number(ri));
-            let (dx, dy) = (a1 - a0, b1 - b0);
-            let d = (dx * dx + dy * dy).sqrt();
-            if d == 0.0 || d > 2.0 * r.abs() + 1e-9 {
-                return refuse(
-                    "with R the end point must differ from the start and lie within 2R of it",
-                );
-            }
-            let h = (r * r - d * d / 4.0).max(0.0).sqrt();
-            // The centre to the left of the chord for a short CCW arc (or long CW).
-            let left = clockwise == (r < 0.0);
-            let (mx, my) = ((a0 + a1) / 2.0, (b0 + b1) / 2.0);
-            let (ux, uy) = (-dy / d, dx / d);
-            if left {
-                (mx + ux * h, my + uy * h)
-            } else {
-                (mx - ux * h, my - uy * h)
-            }
-        } else {
-            let (ci, cj) = (word(centre_letters[0]), word(centre_letters[1]));
-            if ci.is_none() && cj.is_none() {
-                return refuse("it gives neither a centre (I/J/K for its plane) nor a radius (R)");
-            }
-            let off_a = ci.map_or(0.0, |i| mm(number(i)));
-            let off_b = cj.map_or(0.0, |i| mm(number(i)));
-            if state.arc_absolute {
-                (off_a, off_b)
-            } else {
-                (a0 + off_a, b0 + off_b)
-            }
-        };
-        let r0 = ((a0 - centre.0).powi(2) + (b0 - centre.1).powi(2)).sqrt();
-        let r1 = ((a1 - centre.0).powi(2) + (b1 - centre.1).powi(2)).sqrt();
-        if r0 < 1e-9 || (r0 - r1).abs() > 0.002_f64.max(1e-6 * r0) {
-            return refuse(&format!(
-                "its end is not on its circle (radius {r0:.4} at the start, {r1:.4} at the end)"
-            ));
-        }
-        let th0 = (b0 - centre.1).atan2(a0 - centre.0);
-        let th1 = (b1 - centre.1).atan2(a1 - centre.0);
-        // Signed sweep: clockwise negative; equal ends make a full circle.
-        let sweep = if clockwise {
-            let s = -(th0 - th1).rem_euclid(TAU);
-            if s == 0.0 { -TAU } else { s }
-        } else {
-            let s = (th1 - th0).rem_euclid(TAU);
-            if s == 0.0 { TAU } else { s }
-        };
-        let path = ArcPath {
-            va,
-            vb,
-            centre,
-            r0,
-            r1,
-            th0,
-            sweep,
-            start,
-            end,
+        let ArcPath {
+            r0, r1, sweep, end, ..
+        } = path;
+        let Some((_, centre_letters)) = plane_letters(state.plane) else {
+            unreachable!("arc_path accepts only the three planes");
         };
         // Kept as an arc where what the controller makes of the compensated words stays
         // within the path tolerance (the default one under --tolerance off).
@@ -370,6 +276,125 @@ impl Pass<'_> {
         )?;
         self.record_block(line.number, &sol, state, summary);
         Ok(())
+    }
+
+    /// The arc a G2/G3 block describes from `state.nominal`, in the program's axis values;
+    /// `Err` says why it cannot be followed. The state is left as it is.
+    pub(super) fn arc_path(
+        &self,
+        tokens: &[Token],
+        motion: &BlockMotion,
+        clockwise: bool,
+        state: &State,
+    ) -> Result<ArcPath, String> {
+        let n = self.kin.len();
+        let axis_words = &motion.axis_words;
+        let refuse = |why: &str| Err(why.to_string());
+        if state.unknown & !self.spindle != 0 {
+            return refuse(
+                "the arc starts where an axis is at a place nccomp does not know (after G28, G30, G53, M19 or a change of tool chain)",
+            );
+        }
+        if state.diameter && state.arc_absolute {
+            return refuse(
+                "absolute arc centres (G90.1) in diameter mode (G7) are not supported (program the centre incrementally, G91.1)",
+            );
+        }
+        let Some((plane, centre_letters)) = plane_letters(state.plane) else {
+            return refuse("arcs in a U/V/W plane (G17.1, G18.1, G19.1) are not supported");
+        };
+        let var = |letter: u8| {
+            self.var_of_letter[(letter - b'A') as usize]
+                .filter(|&v| self.kin.kind(v) == AxisKind::Linear)
+        };
+        let (Some(va), Some(vb)) = (var(plane[0]), var(plane[1])) else {
+            return refuse("the machine has no linear axes for this arc plane");
+        };
+        // The arc's start in its plane must be known; other axes the program never set are
+        // taken at home (0), as for straight moves, and the summary says so.
+        if (state.programmed & (1 << va)) == 0 || (state.programmed & (1 << vb)) == 0 {
+            return refuse("the program has not yet set where the arc starts in its plane");
+        }
+        let number = |i: usize| match &tokens[i].kind {
+            TokenKind::Word(w) => match w.value {
+                Value::Number { value, .. } => value,
+                _ => 0.0,
+            },
+            _ => 0.0,
+        };
+        let mm = |x: f64| if state.inch { x * INCH } else { x };
+        // Start and end of the move, nominal.
+        let start = state.nominal;
+        let mut end = state.nominal;
+        for v in 0..n {
+            if let Some(i) = axis_words[v] {
+                end[v] = self.unit(v, state).to_mm(number(i));
+            }
+        }
+        let (a0, b0, a1, b1) = (start[va], start[vb], end[va], end[vb]);
+        // The centre.
+        let word =
+            |letter: u8| motion.arc_words[b"IJKR".iter().position(|&l| l == letter).unwrap_or(0)];
+        let centre = if let Some(ri) = motion.arc_words[3] {
+            let r = mm(number(ri));
+            let (dx, dy) = (a1 - a0, b1 - b0);
+            let d = (dx * dx + dy * dy).sqrt();
+            if d == 0.0 || d > 2.0 * r.abs() + 1e-9 {
+                return refuse(
+                    "with R the end point must differ from the start and lie within 2R of it",
+                );
+            }
+            let h = (r * r - d * d / 4.0).max(0.0).sqrt();
+            // The centre to the left of the chord for a short CCW arc (or long CW).
+            let left = clockwise == (r < 0.0);
+            let (mx, my) = ((a0 + a1) / 2.0, (b0 + b1) / 2.0);
+            let (ux, uy) = (-dy / d, dx / d);
+            if left {
+                (mx + ux * h, my + uy * h)
+            } else {
+                (mx - ux * h, my - uy * h)
+            }
+        } else {
+            let (ci, cj) = (word(centre_letters[0]), word(centre_letters[1]));
+            if ci.is_none() && cj.is_none() {
+                return refuse("it gives neither a centre (I/J/K for its plane) nor a radius (R)");
+            }
+            let off_a = ci.map_or(0.0, |i| mm(number(i)));
+            let off_b = cj.map_or(0.0, |i| mm(number(i)));
+            if state.arc_absolute {
+                (off_a, off_b)
+            } else {
+                (a0 + off_a, b0 + off_b)
+            }
+        };
+        let r0 = ((a0 - centre.0).powi(2) + (b0 - centre.1).powi(2)).sqrt();
+        let r1 = ((a1 - centre.0).powi(2) + (b1 - centre.1).powi(2)).sqrt();
+        if r0 < 1e-9 || (r0 - r1).abs() > 0.002_f64.max(1e-6 * r0) {
+            return refuse(&format!(
+                "its end is not on its circle (radius {r0:.4} at the start, {r1:.4} at the end)"
+            ));
+        }
+        let th0 = (b0 - centre.1).atan2(a0 - centre.0);
+        let th1 = (b1 - centre.1).atan2(a1 - centre.0);
+        // Signed sweep: clockwise negative; equal ends make a full circle.
+        let sweep = if clockwise {
+            let s = -(th0 - th1).rem_euclid(TAU);
+            if s == 0.0 { -TAU } else { s }
+        } else {
+            let s = (th1 - th0).rem_euclid(TAU);
+            if s == 0.0 { TAU } else { s }
+        };
+        Ok(ArcPath {
+            va,
+            vb,
+            centre,
+            r0,
+            r1,
+            th0,
+            sweep,
+            start,
+            end,
+        })
     }
 
     /// A piece's nominal point must lie within the travel, and its correction must be

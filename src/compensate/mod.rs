@@ -11,6 +11,7 @@ mod cycles;
 mod exact;
 mod gcodes;
 mod lathe;
+mod nominal;
 mod split;
 mod summary;
 mod tcp;
@@ -18,6 +19,8 @@ mod tcp_vector;
 mod words;
 mod writing;
 
+pub use arc_keep::ArcPath;
+pub use nominal::{NominalMove, Shape};
 pub use summary::{Extreme, Sample, Summary};
 
 use crate::diag::{Diagnostic, Error};
@@ -580,78 +583,8 @@ impl<'m> Pass<'m> {
         }
         let previous = state.nominal;
         let start_known = state.programmed & !state.unknown;
-        // New nominal values; `units[v]`: a G91 word's value exactly.
-        let mut units = [0i128; MAX_AXES];
-        for (v, word) in axis_words.iter().enumerate().take(n) {
-            let Some(i) = *word else { continue };
-            let t = &tokens[i];
-            let TokenKind::Word(w) = &t.kind else {
-                unreachable!()
-            };
-            let Value::Number { value, decimals } = w.value else {
-                unreachable!()
-            };
-            let unit = self.unit(v, state);
-            let bit = 1u32 << v;
-            if state.incremental {
-                let u = exact::number_units(
-                    value,
-                    decimals,
-                    &line.content[w.value_span.clone()],
-                    unit,
-                )
-                .filter(|_| decimals <= exact::MAX_DECIMALS)
-                .ok_or_else(|| {
-                    at(
-                        t.span.start,
-                        format!(
-                            "{} has {decimals} decimals; an incremental (G91) word can have at most {} (nccomp sums increments exactly)",
-                            w.letter as char,
-                            exact::MAX_DECIMALS
-                        ),
-                    )
-                })?;
-                if state.programmed & bit == 0 && state.unknown & bit == 0 {
-                    summary.note_incremental_from_home(self.axis_name(v), line.number);
-                }
-                units[v] = u;
-                state.nominal_exact[v] = state.nominal_exact[v].add(u);
-                state.nominal[v] = exact::to_f64(state.nominal_exact[v].units());
-            } else {
-                state.nominal[v] = unit.to_mm(value);
-                state.nominal_exact[v] = Position::Decimal {
-                    value,
-                    decimals,
-                    unit,
-                };
-                // An optional block cannot make an axis known: with block delete on it
-                // does not run.
-                if !optional {
-                    state.unknown &= !bit;
-                }
-            }
-        }
-        // Programmed values outside the travel are the program's own fault.
-        for (v, word) in axis_words.iter().enumerate().take(n) {
-            if state.unknown & (1 << v) != 0 {
-                continue;
-            }
-            if let Some([lo, hi]) = self.travel(v)
-                && !(lo..=hi).contains(&state.nominal[v])
-                && !self.options.allow_limit_violations
-            {
-                let col = word.map_or(0, |i| tokens[i].span.start);
-                return Err(at(
-                    col,
-                    format!(
-                        "axis {} is programmed to {:.4}, outside its travel {lo} … {hi} (use --allow-limit-violations to compensate it anyway)",
-                        self.axis_name(v),
-                        state.nominal[v]
-                    ),
-                )
-                .with_code(TRAVEL_LIMIT));
-            }
-        }
+        let units =
+            self.advance_nominal(line, tokens, &axis_words, optional, state, summary, at)?;
         if state.unknown & !self.spindle != 0 {
             // The pose cannot be evaluated: the block is written as it is, and what the
             // machine is told is what the program says.
@@ -846,6 +779,97 @@ impl<'m> Pass<'m> {
             }
         }
         Ok(())
+    }
+
+    /// Follow a G0/G1 block's axis words: `state.nominal` (and its exact twin) become the
+    /// block's programmed end, absolute or incremental, in mm and degrees. Returns each G91
+    /// word's increment exactly (units). A programmed value outside the travel is refused
+    /// unless limit violations are allowed.
+    #[allow(clippy::too_many_arguments)]
+    fn advance_nominal(
+        &self,
+        line: &nc::Line<'_>,
+        tokens: &[Token],
+        axis_words: &[Option<usize>; MAX_AXES],
+        optional: bool,
+        state: &mut State,
+        summary: &mut Summary,
+        at: &dyn Fn(usize, String) -> Diagnostic,
+    ) -> Result<[i128; MAX_AXES], Diagnostic> {
+        let n = self.kin.len();
+        // New nominal values; `units[v]`: a G91 word's value exactly.
+        let mut units = [0i128; MAX_AXES];
+        for (v, word) in axis_words.iter().enumerate().take(n) {
+            let Some(i) = *word else { continue };
+            let t = &tokens[i];
+            let TokenKind::Word(w) = &t.kind else {
+                unreachable!()
+            };
+            let Value::Number { value, decimals } = w.value else {
+                unreachable!()
+            };
+            let unit = self.unit(v, state);
+            let bit = 1u32 << v;
+            if state.incremental {
+                let u = exact::number_units(
+                    value,
+                    decimals,
+                    &line.content[w.value_span.clone()],
+                    unit,
+                )
+                .filter(|_| decimals <= exact::MAX_DECIMALS)
+                .ok_or_else(|| {
+                    at(
+                        t.span.start,
+                        format!(
+                            "{} has {decimals} decimals; an incremental (G91) word can have at most {} (nccomp sums increments exactly)",
+                            w.letter as char,
+                            exact::MAX_DECIMALS
+                        ),
+                    )
+                })?;
+                if state.programmed & bit == 0 && state.unknown & bit == 0 {
+                    summary.note_incremental_from_home(self.axis_name(v), line.number);
+                }
+                units[v] = u;
+                state.nominal_exact[v] = state.nominal_exact[v].add(u);
+                state.nominal[v] = exact::to_f64(state.nominal_exact[v].units());
+            } else {
+                state.nominal[v] = unit.to_mm(value);
+                state.nominal_exact[v] = Position::Decimal {
+                    value,
+                    decimals,
+                    unit,
+                };
+                // An optional block cannot make an axis known: with block delete on it
+                // does not run.
+                if !optional {
+                    state.unknown &= !bit;
+                }
+            }
+        }
+        // Programmed values outside the travel are the program's own fault.
+        for (v, word) in axis_words.iter().enumerate().take(n) {
+            if state.unknown & (1 << v) != 0 {
+                continue;
+            }
+            if let Some([lo, hi]) = self.travel(v)
+                && !(lo..=hi).contains(&state.nominal[v])
+                && !self.options.allow_limit_violations
+            {
+                let col = word.map_or(0, |i| tokens[i].span.start);
+                return Err(at(
+                    col,
+                    format!(
+                        "axis {} is programmed to {:.4}, outside its travel {lo} … {hi} (use --allow-limit-violations to compensate it anyway)",
+                        self.axis_name(v),
+                        state.nominal[v]
+                    ),
+                )
+                .with_code(TRAVEL_LIMIT));
+            }
+        }
+        Ok(units)
     }
 
     /// Count a compensated block (or inserted piece) and record what the model predicts for

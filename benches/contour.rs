@@ -1,0 +1,86 @@
+//! Contour analysis of a million-sample trace.
+//!
+//!     cargo bench --bench contour
+//!
+//! The program is the S-shaped test piece's face finished in 84 passes there and back
+//! (16,800 five-axis blocks, 18.7 m of tool tip path); the trace is a simulated run of it
+//! at F1200 on the AC trunnion with servo lag, read every millisecond: 1,002,000 samples
+//! (20 µm apart), so the program is sampled at about a million reference points too.
+//! Figures go to docs/performance.md.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use nccomp::compensate::{Compensator, Options};
+use nccomp::contour::s_shape::{Finishing, SShape, finishing_program};
+use nccomp::contour::simulate::{Servo, simulate};
+use nccomp::contour::{self, trace};
+use nccomp::model::{ErrorModel, machine_file};
+use std::hint::black_box;
+use std::path::Path;
+
+fn bench(c: &mut Criterion) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let machine = machine_file::load(&root.join("ac_trunnion.machine.toml")).unwrap();
+    let finishing = Finishing {
+        passes: 90,
+        step_down: 0.1,
+        ..Finishing::default()
+    };
+    let program = finishing_program(&machine, &SShape::paper(), &finishing).unwrap();
+    let comp = Compensator::new(&machine, &ErrorModel::zero(&machine), Options::default()).unwrap();
+    let (moves, kin) = comp.nominal_moves(program.as_bytes(), "bench.nc").unwrap();
+    let servo = Servo {
+        sample: 0.001,
+        ..Servo::paper(kin.len())
+    };
+    let length = machine.tool.lengths[&1];
+    let mut trace = simulate(&machine, kin, &moves, length, &servo);
+    trace.commanded = None;
+    let samples = trace.len();
+    assert!(samples >= 1_000_000, "{samples} samples");
+    let csv = trace.to_csv();
+    let options = contour::Options::default();
+    let analysis = contour::analyse_trace(
+        kin,
+        &moves,
+        &trace,
+        ("bench.nc", program.as_bytes()),
+        &options,
+    )
+    .unwrap();
+    eprintln!(
+        "{samples} samples, {} reference points, step {:.4} mm, max tip error {:.3} µm",
+        analysis.reference.len(),
+        analysis.step,
+        analysis.summary.tip.max * 1e3
+    );
+
+    let mut group = c.benchmark_group("contour");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(samples as u64));
+    group.bench_function("1M-sample trace, in memory", |b| {
+        b.iter(|| {
+            contour::analyse_trace(
+                kin,
+                &moves,
+                black_box(&trace),
+                ("bench.nc", program.as_bytes()),
+                &options,
+            )
+            .unwrap()
+        })
+    });
+    group.bench_function("1M-sample trace, read from CSV", |b| {
+        b.iter(|| {
+            let t = trace::read("bench.csv", black_box(csv.as_bytes()), &machine, kin).unwrap();
+            contour::analyse_trace(kin, &moves, &t, ("bench.nc", program.as_bytes()), &options)
+                .unwrap()
+        })
+    });
+    group.bench_function("reading the 1M-sample CSV", |b| {
+        b.iter(|| trace::read("bench.csv", black_box(csv.as_bytes()), &machine, kin).unwrap())
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
