@@ -28,6 +28,14 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
+/// The run failed with `message` at `place` (`file:line:column`), as nccomp prints it.
+fn refused(out: &Output, place: &str, message: &str) {
+    let err = stderr(out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.starts_with(&format!("error: {message}")), "{err}");
+    assert!(err.contains(&format!(" --> {place}\n")), "{err}");
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> String {
     let path = dir.join(name);
     std::fs::write(&path, text).unwrap();
@@ -108,25 +116,17 @@ fn a_bad_trace_is_reported_at_its_place() {
     let dir = scratch("bad");
     let missing = write(&dir, "missing.csv", "time,X,Y,Z,A\n0,1,2,3,4\n");
     let out = nccomp(&["contour", "-m", MACHINE, PROGRAM, "--trace", &missing]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        stderr(&out).starts_with(&format!(
-            "{missing}:1:13: the trace has no column for `C` (expected the columns time, X, Y, Z, A, C"
-        )),
-        "{}",
-        stderr(&out)
+    refused(
+        &out,
+        &format!("{missing}:1:13"),
+        "the trace has no column for `C` (expected the columns time, X, Y, Z, A, C",
     );
     let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(TRACE))
         .unwrap()
         .replacen("\n0.030000,-77.", "\n0.030000,-77.x", 1);
     let bad = write(&dir, "bad.csv", &text);
     let out = nccomp(&["contour", "-m", MACHINE, PROGRAM, "--trace", &bad]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        stderr(&out).starts_with(&format!("{bad}:7:10: `X` is `-77.x678700`")),
-        "{}",
-        stderr(&out)
-    );
+    refused(&out, &format!("{bad}:7:10"), "`X` is `-77.x678700`");
 }
 
 #[test]
@@ -138,13 +138,10 @@ fn a_trace_of_another_program_is_refused_at_the_block_it_misses() {
         "G21 G90\nG0 X100 Y0 Z50 A-10 C0\nG1 X120 F500\nM30\n",
     );
     let out = nccomp(&["contour", "-m", MACHINE, &program, "--trace", TRACE]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        stderr(&out).starts_with(&format!(
-            "{program}:2:1: the trace never comes within 1 mm of where this move ends"
-        )),
-        "{}",
-        stderr(&out)
+    refused(
+        &out,
+        &format!("{program}:2:1"),
+        "the trace never comes within 1 mm of where this move ends",
     );
 }
 
@@ -162,10 +159,9 @@ fn bad_options_and_programs_are_refused() {
         "G21 G90\nG43.4 H1\nG1 X10 Y0 Z5 A-10 C0 F500\n",
     );
     let out = nccomp(&["contour", "-m", MACHINE, &program, "--trace", TRACE]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        stderr(&out).contains(":3:4: a tool-centre-point block (G43.4/G43.5) cannot be followed"),
-        "{}",
-        stderr(&out)
+    refused(
+        &out,
+        &format!("{program}:3:4"),
+        "a tool-centre-point block (G43.4/G43.5) cannot be followed",
     );
 }

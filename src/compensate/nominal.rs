@@ -10,6 +10,9 @@ use crate::kinematics::{Kinematics, MAX_AXES};
 use crate::nc::{self, Token, TokenKind, Value};
 
 /// How a move goes from its start to its end.
+// A move is stored once per block and copied rarely; boxing the arc would allocate per arc
+// for nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Shape {
     /// G0: straight in axis space at the rapid rate (a controller may dogleg it).
