@@ -8,6 +8,13 @@
 //! along the path (random sinusoids). The analysis must give back, at every reference
 //! point, the offset within 0.1 µm and the tilt within 1 µrad.
 //!
+//! Noise: besides the jitter of the sampling instants, every sample's tip can be moved by
+//! a random amount perpendicular to the path and its tool tilted by a random angle. The
+//! smooth offset then no longer tells the error between samples, so the test works it out
+//! itself from the poses it injected: the shortest distance from the reference tip to the
+//! polyline through the injected tips (every sample interval tried), and the angle to the
+//! injected tool direction interpolated there.
+//!
 //! A sampled trace cannot show a corner of the path between two samples (a chord across a
 //! corner of angle δ between samples L apart cuts it by up to L·δ/4, docs/contour.md), so
 //! these traces also hold a sample where the machine passes each block end, as a trace
@@ -68,6 +75,10 @@ struct Injection {
     /// Make the offset perpendicular to the path as it runs over a block's length rather
     /// than to the block (not where the path turns back on itself).
     smooth: bool,
+    /// Largest random tip offset perpendicular to the path (mm) and tool tilt (rad) added
+    /// to each sample on its own (0: none).
+    noise: f64,
+    tilt_noise: f64,
     seed: u64,
 }
 
@@ -177,8 +188,9 @@ fn injected(path: &Path, inj: &Injection, sigma: f64) -> (Pose, f64, [f64; MAX_A
     )
 }
 
-/// A trace of the program's `moves` with the errors of `inj`.
-fn synthetic_trace(machine: &Machine, path: &Path, inj: &Injection) -> Trace {
+/// A trace of the program's `moves` with the errors of `inj`, and the pose injected at
+/// each of its samples.
+fn synthetic_trace(machine: &Machine, path: &Path, inj: &Injection) -> (Trace, Vec<Pose>) {
     let kin = path.kin;
     let n = kin.len();
     let mut rng = inj.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
@@ -214,17 +226,33 @@ fn synthetic_trace(machine: &Machine, path: &Path, inj: &Injection) -> Trace {
     // times stay in order.
     instants.sort_by(|a, b| a.1.total_cmp(&b.1));
     let mut last = f64::NEG_INFINITY;
+    let mut poses = Vec::with_capacity(instants.len());
     for (time, sigma) in instants {
         let time = time.max(last);
         last = time;
-        let (target, _, guess, _) = injected(path, inj, sigma);
+        let (mut target, _, guess, _) = injected(path, inj, sigma);
+        if inj.noise > 0.0 || inj.tilt_noise > 0.0 {
+            let tangent = path.at(sigma).2.normalize();
+            let across = tangent.cross(&Vector3::new(0.3, -0.5, 0.8)).normalize();
+            let phi = TAU * uniform();
+            let side = across * phi.cos() + tangent.cross(&across) * phi.sin();
+            target.p += side * (inj.noise * uniform());
+            let o = target.o;
+            let m = o.cross(&Vector3::new(0.6, 0.7, -0.2)).normalize();
+            let psi = TAU * uniform();
+            let axis = m * psi.cos() + o.cross(&m) * psi.sin();
+            target.o =
+                Rotation3::from_axis_angle(&Unit::new_normalize(axis), inj.tilt_noise * uniform())
+                    * o;
+        }
         let sol = kin
             .inverse(Model::Nominal, &target, &guess[..n], path.length, &options)
             .unwrap_or_else(|| panic!("the injected pose at σ = {sigma} cannot be reached"));
         trace.time.push(time);
         trace.actual.extend_from_slice(sol.values());
+        poses.push(target);
     }
-    trace
+    (trace, poses)
 }
 
 /// Run the analysis and compare every reported point with the injection.
@@ -238,7 +266,7 @@ fn check(
     let (moves, kin) = comp.nominal_moves(program.as_bytes(), "t.nc").unwrap();
     let length = moves.last().unwrap().tool_length;
     let path = Path::new(kin, &moves, length, inj.speed);
-    let trace = synthetic_trace(machine, &path, inj);
+    let (trace, poses) = synthetic_trace(machine, &path, inj);
     let a = contour::analyse_trace(
         kin,
         &moves,
@@ -263,11 +291,38 @@ fn check(
         } else {
             index[&r.line] as f64 + r.s
         };
+        // The reference point is the program's pose there.
+        let (_, pose, _) = path.at(sigma);
+        prop_assert!(
+            (pose.p - r.p).norm() < 1e-9 && angle_between(&pose.o, &r.o) < 1e-9,
+            "line {} s = {}: reference {:?}, program {:?}",
+            r.line,
+            r.s,
+            r,
+            pose
+        );
+        if inj.noise > 0.0 || inj.tilt_noise > 0.0 {
+            let (dt, da) = against_polyline(&poses, &r.p, &r.o, p.actual.tip, p.actual.axis);
+            worst_tip = worst_tip.max(dt);
+            worst_axis = worst_axis.max(da);
+            prop_assert!(
+                dt < 1e-4 && da < 1e-6,
+                "line {} s = {:.4}: tip {:.5} µm, {:.5} µm off the injected; axis {:.4} µrad, {:.4} µrad off",
+                r.line,
+                r.s,
+                p.actual.tip * 1e3,
+                dt * 1e3,
+                p.actual.axis * 1e6,
+                da * 1e6
+            );
+            continue;
+        }
         // The tilt as seen at the place the shortest distance meets: an offset that is not
         // quite perpendicular to the path moves that place a little along the path. At a
         // block end the path has a corner, and the place may be on either side of it.
         let (_, tip, _, shift) = injected(&path, inj, sigma);
-        let mut places = vec![sigma + shift];
+        // The actual path starts and ends where the program does.
+        let mut places = vec![(sigma + shift).clamp(0.0, path.moves.len() as f64)];
         if r.s == 1.0 && sigma > 0.0 {
             let (_, _, _, before) = injected(&path, inj, sigma - 1e-9);
             places.extend([sigma, sigma + before]);
@@ -311,6 +366,42 @@ fn check(
         })
         .collect();
     Ok((a, tips))
+}
+
+/// How far a computed tip distance and tool angle are from what the injected sample poses
+/// give: the shortest distance from `p` to the polyline through their tips, and the angle
+/// between `o` and their tool direction interpolated at the nearest place. Where other
+/// places are within 5 nm as near (ties between neighbouring sample intervals), the angle
+/// at any of them will do.
+fn against_polyline(
+    poses: &[Pose],
+    p: &Vector3<f64>,
+    o: &Vector3<f64>,
+    tip: f64,
+    axis: f64,
+) -> (f64, f64) {
+    let feet: Vec<(f64, Vector3<f64>)> = poses
+        .windows(2)
+        .map(|w| {
+            let ab = w[1].p - w[0].p;
+            let len2 = ab.norm_squared();
+            let t = if len2 > 0.0 {
+                ((p - w[0].p).dot(&ab) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let foot = w[0].p + ab * t;
+            let dir = (w[0].o + (w[1].o - w[0].o) * t).normalize();
+            ((foot - p).norm(), dir)
+        })
+        .collect();
+    let nearest = feet.iter().map(|f| f.0).fold(f64::INFINITY, f64::min);
+    let angle = feet
+        .iter()
+        .filter(|f| f.0 <= nearest + 5e-6)
+        .map(|f| (angle_between(&f.1, o) - axis).abs())
+        .fold(f64::INFINITY, f64::min);
+    ((tip - nearest).abs(), angle)
 }
 
 /// A five-axis program along a smooth tip curve with a smoothly leaning tool, one block
@@ -431,6 +522,41 @@ proptest! {
             angle: wave(phi.0, phi.1, 18.0 * stretch, 0.0),
             tilt: wave(tilt.0, tilt.1, tilt.2 * stretch, tilt.3),
             smooth: true,
+            noise: 0.0,
+            tilt_noise: 0.0,
+            seed,
+        };
+        check(&m, &program, &inj)?;
+    }
+
+    /// The same with every sample's tip moved off the path by up to a micron and its tool
+    /// tilted by up to 5 µrad on its own, sampled every 20 µm.
+    #[test]
+    fn injected_errors_and_noise_come_back(
+        which in 0usize..3,
+        a in 1.0f64..4.0,
+        rho in 12.0f64..20.0,
+        turn in -1.0f64..1.0,
+        e in (-0.015f64..0.015, 0.0f64..0.005, 10.0f64..40.0, 0.0f64..TAU),
+        tilt in (-1e-3f64..1e-3, 0.0f64..3e-4, 8.0f64..40.0, 0.0f64..TAU),
+        noise in (1e-4f64..1e-3, 1e-7f64..5e-6),
+        lag in 0.0f64..0.05,
+        jitter in 0.0f64..0.4,
+        seed in any::<u64>(),
+    ) {
+        let m = machine(["ac_trunnion", "bc_trunnion", "head_head"][which]);
+        let program = smooth_program(&m, [a, 1.5, rho, 20.0, 2.0, turn], 24);
+        let inj = Injection {
+            speed: 20.0,
+            period: 0.001,
+            lag,
+            jitter,
+            offset: wave(e.0, e.1, e.2, e.3),
+            angle: wave(0.3, 0.7, 18.0, 0.0),
+            tilt: wave(tilt.0, tilt.1, tilt.2, tilt.3),
+            smooth: true,
+            noise: noise.0,
+            tilt_noise: noise.1,
             seed,
         };
         check(&m, &program, &inj)?;
@@ -457,6 +583,8 @@ fn injected_errors_come_back_on_the_s_shaped_piece() {
         angle: wave(0.2, 0.8, 130.0, 0.0),
         tilt: wave(3e-4, 1e-4, 90.0, 1.0),
         smooth: true,
+        noise: 0.0,
+        tilt_noise: 0.0,
         seed: 3,
     };
     let (a, _) = check(&m, &program, &inj).unwrap();
@@ -471,7 +599,9 @@ fn injected_errors_come_back_on_the_s_shaped_piece() {
 /// Where the path doubles back on itself the way out and the way back are microns apart;
 /// each reference point must be matched on its own pass. The offset is 15 µm at the start,
 /// 10 µm at the turn and 5 µm at the end, on the same side: at a place passed twice the
-/// two passes differ by up to 10 µm, so a match on the wrong pass fails.
+/// two passes differ by up to 10 µm, so a match on the wrong pass fails. Here the passes
+/// are 30 mm apart along the path, further than the search window reaches; the next test
+/// is about the turn itself.
 #[test]
 fn a_path_that_doubles_back_is_matched_pass_by_pass() {
     let m = machine("ac_trunnion");
@@ -486,6 +616,8 @@ fn a_path_that_doubles_back_is_matched_pass_by_pass() {
         angle: wave(0.5, 0.0, 1.0, 0.0),
         tilt: wave(2e-4, 1e-4, 4.0, TAU / 4.0),
         smooth: false,
+        noise: 0.0,
+        tilt_noise: 0.0,
         seed: 11,
     };
     let (a, tips) = check(&m, program, &inj).unwrap();
@@ -504,4 +636,43 @@ fn a_path_that_doubles_back_is_matched_pass_by_pass() {
         "{nearest} {}",
         p.actual.tip
     );
+}
+
+/// At the turn of a path that doubles back both passes lie within the search window. The
+/// offset ripples (10 ± 5 µm, 1.2 mm period) and falls through the turn, so just before
+/// it the way back runs microns nearer to the reference than the way out: only a search
+/// that keeps to the reference's direction of travel matches those points on the way out.
+#[test]
+fn the_turn_of_a_path_that_doubles_back_is_matched_on_the_way_out() {
+    let m = machine("ac_trunnion");
+    let program = "G21 G90 G94\nG1 X-10 Y5 Z2 A-20 C30 F1000\nG1 X-7 Y5.3 Z2.1 A-20.4 C30.6\nG1 X-10 Y5 Z2 A-20 C30\nM30\n";
+    let inj = Injection {
+        speed: 20.0,
+        period: 0.001,
+        lag: 0.02,
+        jitter: 0.3,
+        // 10 + 5·sin(5πσ) µm: 10 at the turn (σ = 1), more before it, less after.
+        offset: wave(0.010, 0.005, 0.4, 0.0),
+        angle: wave(0.5, 0.0, 1.0, 0.0),
+        tilt: wave(2e-4, 1e-4, 1.5, 0.0),
+        smooth: false,
+        noise: 0.0,
+        tilt_noise: 0.0,
+        seed: 5,
+    };
+    let (a, tips) = check(&m, program, &inj).unwrap();
+    // The test can tell: just before the turn a trace sample on the way back is microns
+    // nearer than the injected offset of the way out.
+    let nearer = a
+        .points()
+        .filter(|p| p.reference.line == 3 && p.reference.s > 0.97 && p.reference.s < 1.0)
+        .filter(|p| {
+            let nearest = tips
+                .iter()
+                .map(|t| (t - p.reference.p).norm())
+                .fold(f64::INFINITY, f64::min);
+            nearest < p.actual.tip - 0.0005
+        })
+        .count();
+    assert!(nearer >= 2, "{nearer} points");
 }
