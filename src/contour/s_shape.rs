@@ -263,7 +263,19 @@ pub fn finishing_program(
         number += 10;
         let _ = writeln!(text, "N{number} {body}");
     };
-    let name = machine.name.as_deref().unwrap_or("unnamed machine");
+    // A comment ends at the first `)` and cannot hold a `(` (nor `;`, which starts one).
+    let name: String = machine
+        .name
+        .as_deref()
+        .unwrap_or("unnamed machine")
+        .chars()
+        .map(|c| match c {
+            '(' | '[' => '[',
+            ')' | ']' => ']',
+            ';' => ',',
+            c => c,
+        })
+        .collect();
     let _ = writeln!(
         text,
         "%\nO0003 (S-SHAPED TEST PIECE, FINISHING OF FACE A: PAPER 003)\n(MACHINE: {name})\n(RULED SURFACE BETWEEN TWO CUBIC B-SPLINE DIRECTRICES, Z0 AND Z35)\n(TOOL T{}: FLAT END MILL R{}, FLANK CUT ALONG THE RULINGS, END FACE {} MM BELOW THE EDGE)\n(MADE BY nccomp: cargo run --example s_shape)",

@@ -391,7 +391,7 @@ impl Layout<'_> {
                     self.text,
                     start,
                     format!(
-                        "this row has {fields} field{} but the header names {expected} column{}",
+                        "this row has {fields} field{} but the header names {expected} column{} (expected one field per column, separated by commas)",
                         if fields == 1 { "" } else { "s" },
                         if expected == 1 { "" } else { "s" },
                     ),
@@ -658,7 +658,7 @@ mod tests {
         );
         assert_eq!(
             e("time,X,Y,Z,A,C\n# c\n0,1,2,3,4,5\n\n0.1,1,2,3,4\n"),
-            "t.csv:5:1: this row has 5 fields but the header names 6 columns"
+            "t.csv:5:1: this row has 5 fields but the header names 6 columns (expected one field per column, separated by commas)"
         );
         assert_eq!(
             e("time,X,Y,Z,A,C\n0.2,1,2,3,4,5\n  0.1, 1,2,3,4,5\n"),
