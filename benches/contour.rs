@@ -2,11 +2,11 @@
 //!
 //!     cargo bench --bench contour
 //!
-//! The program is the S-shaped test piece's face finished in 84 passes there and back
-//! (16,800 five-axis blocks, 18.7 m of tool tip path); the trace is a simulated run of it
-//! at F1200 on the AC trunnion with servo lag, read every millisecond: 1,002,000 samples
-//! (20 µm apart), so the program is sampled at about a million reference points too.
-//! Figures go to docs/performance.md.
+//! The program is the S-shaped test piece's face finished in 90 passes there and back
+//! (18,103 blocks, 20.1 m of tool tip path); the trace is a simulated run of it at F1200
+//! on the AC trunnion with servo lag, read every millisecond: 1,007,908 samples (20 µm
+//! apart), so the program is sampled at about a million reference points too. Figures go
+//! to docs/performance.md.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use nccomp::compensate::{Compensator, Options};

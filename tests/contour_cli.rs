@@ -338,6 +338,8 @@ fn a_mill_turn_program_is_followed_while_it_mills_in_one_tool_chain() {
         "fixtures/mill_turn_turning.nc:8:8",
         "a turning move cannot be followed",
     );
+    // Once, not at every turning block.
+    assert_eq!(stderr(&turning).matches("error:").count(), 1);
     let two = write(
         &dir,
         "two.nc",

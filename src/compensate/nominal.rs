@@ -83,6 +83,8 @@ impl Compensator<'_> {
         let mut feed: Option<f64> = None;
         // The pass the first move runs in.
         let mut followed: Option<usize> = None;
+        // A block in another pass than the first move's: one message says it all.
+        let mut elsewhere = false;
         for line in nc::lines(src) {
             nc::parse_line(line.content, &mut tokens);
             let at = |offset: usize, message: String| {
@@ -110,6 +112,7 @@ impl Compensator<'_> {
                     let moves_on_path =
                         !matches!(motion.kind, MoveKind::Machine | MoveKind::Home);
                     if moves_on_path && pass.turning {
+                        elsewhere = true;
                         return Err(at(
                             col,
                             "a turning move cannot be followed: the spindle turns or stands where the program has not positioned it (expected milling moves, after M19 and a C word)".into(),
@@ -119,6 +122,7 @@ impl Compensator<'_> {
                         _ if !moves_on_path => {}
                         None => followed = Some(state.pass),
                         Some(p) if p != state.pass => {
+                            elsewhere = true;
                             let name = |p: usize| &self.machine.tool_chains[self.passes[p].chain].name;
                             return Err(at(
                                 col,
@@ -149,7 +153,7 @@ impl Compensator<'_> {
                 Ok(None) => {}
                 Err(d) => {
                     errors.push(d);
-                    if errors.len() >= self.passes[state.pass].options.max_errors {
+                    if elsewhere || errors.len() >= self.passes[state.pass].options.max_errors {
                         break;
                     }
                 }
