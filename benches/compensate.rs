@@ -11,38 +11,17 @@ use nccomp::model::{error_file, machine_file};
 use std::hint::black_box;
 use std::path::Path;
 
-const BLOCKS: usize = 100_000;
-
-/// A five-axis G1 program: a spiral over a tilted surface with A and C moving in every block,
-/// modal words, N numbers, a comment every 100 blocks.
-fn program() -> Vec<u8> {
-    let mut s = String::from("%\nO0100 (BENCH)\nN10 G21 G90 G94\nN20 G0 X0 Y0 Z50. A0 C0\n");
-    for i in 0..BLOCKS {
-        let t = i as f64 / BLOCKS as f64;
-        let phi = t * 400.0 * std::f64::consts::TAU;
-        let r = 20.0 + 100.0 * t;
-        let x = r * phi.cos();
-        let y = r * phi.sin();
-        let z = 10.0 + 5.0 * (phi * 0.5).sin();
-        let a = -30.0 + 25.0 * (t * 50.0).sin();
-        let c = (phi.to_degrees() + 180.0).rem_euclid(360.0) - 180.0;
-        if i % 100 == 0 {
-            s.push_str("(PASS)\n");
-        }
-        s.push_str(&format!(
-            "N{} G1 X{x:.4} Y{y:.4} Z{z:.4} A{a:.4} C{c:.4}\n",
-            30 + i
-        ));
-    }
-    s.push_str("M30\n%\n");
-    s.into_bytes()
+mod common {
+    pub mod program;
 }
+
+const BLOCKS: usize = 100_000;
 
 fn bench(c: &mut Criterion) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
     let machine = machine_file::load(&root.join("ac_trunnion.machine.toml")).unwrap();
     let errors = error_file::load(&root.join("ac_trunnion.errors.toml"), &machine).unwrap();
-    let src = program();
+    let src = common::program::program(BLOCKS);
     let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
 
     let mut group = c.benchmark_group("compensate");

@@ -8,7 +8,7 @@ use nccomp::compensate::{Compensator, Options};
 use nccomp::diag::use_color;
 use nccomp::kinematics::Kinematics;
 use nccomp::model::{ErrorModel, error_file, machine_file};
-use std::io::{Read, Write};
+use std::io::{Read, Seek, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -617,29 +617,27 @@ fn is_std(path: &Option<PathBuf>) -> bool {
 fn compensate(args: &CompensateArgs) -> nccomp::Result<Status> {
     let machine = machine_file::load(&args.pass.machine)?;
     let errors = error_file::load(&args.pass.errors, &machine)?;
-    let (src, name) = if is_std(&args.input) {
+    let comp = Compensator::new(&machine, &errors, args.pass.options()?)?;
+    // The program streams through in bounded memory, to a temporary file that takes the
+    // output's place only when every block has been compensated.
+    let (input, name): (Box<dyn Read>, String) = if is_std(&args.input) {
         use std::io::IsTerminal;
         if std::io::stdin().is_terminal() {
             eprintln!(
                 "nccomp: reading the program from standard input (end with Ctrl-D; see --help)"
             );
         }
-        let mut buf = Vec::new();
-        std::io::stdin()
-            .read_to_end(&mut buf)
-            .map_err(|e| nccomp::Error::io(Path::new("<stdin>"), e))?;
-        (buf, "<stdin>".to_string())
+        (Box::new(std::io::stdin().lock()), "<stdin>".to_string())
     } else {
         let path = args.input.as_deref().unwrap_or(Path::new("-"));
-        let buf = std::fs::read(path).map_err(|e| nccomp::Error::io(path, e))?;
-        (buf, path.display().to_string())
+        let file = std::fs::File::open(path).map_err(|e| nccomp::Error::io(path, e))?;
+        (Box::new(file), path.display().to_string())
     };
-    let comp = Compensator::new(&machine, &errors, args.pass.options()?)?;
-    let mut out = Vec::with_capacity(src.len() + src.len() / 8);
-    let summary = comp.run(&src, &name, &mut out)?;
     let mut status = Status::Clean;
-    match (&args.expected, &args.output) {
+    let summary = match (&args.expected, &args.output) {
         (Some(expected), _) => {
+            let mut out = Vec::new();
+            let summary = comp.run_stream(input, &name, &mut out, "<memory>")?;
             let (committed, expected_name) = read_file(expected)?;
             if let Some(diff) = nccomp::check::stale::compare(&expected_name, &committed, &out) {
                 print(&format!(
@@ -647,16 +645,27 @@ fn compensate(args: &CompensateArgs) -> nccomp::Result<Status> {
                 ))?;
                 status = Status::Findings;
             }
+            summary
         }
-        (None, Some(path)) if !is_std(&args.output) => write_atomically(path, &out)?,
+        (None, Some(path)) if !is_std(&args.output) => write_atomically_with(path, |file| {
+            comp.run_stream(input, &name, file, &path.display().to_string())
+        })?,
         _ => {
+            // Standard output gets nothing from a failed run either: the program is
+            // spooled to an unnamed temporary file and copied out at the end.
+            let spool_error = |e| nccomp::Error::io(Path::new("<temporary file>"), e);
+            let mut spool = tempfile::tempfile().map_err(spool_error)?;
+            let summary = comp.run_stream(input, &name, &mut spool, "<temporary file>")?;
             let mut stdout = std::io::stdout().lock();
-            stdout
-                .write_all(&out)
-                .and_then(|()| stdout.flush())
+            spool
+                .seek(std::io::SeekFrom::Start(0))
+                .map_err(spool_error)?;
+            std::io::copy(&mut spool, &mut stdout)
+                .and_then(|_| stdout.flush())
                 .map_err(|e| nccomp::Error::io(Path::new("<stdout>"), e))?;
+            summary
         }
-    }
+    };
     if !args.quiet {
         eprintln!("{name}: {summary}");
     }
@@ -1258,6 +1267,21 @@ fn simulate_cut(args: &SimulateCutArgs) -> nccomp::Result<()> {
 /// Write `bytes` to `path` through a temporary file in the same directory and a rename, so
 /// the path holds either the old content or the complete new one, never a part.
 fn write_atomically(path: &Path, bytes: &[u8]) -> nccomp::Result<()> {
+    write_atomically_with(path, |file| {
+        file.write_all(bytes)
+            .map_err(|e| nccomp::Error::io(path, e))
+    })
+}
+
+/// Let `write` fill a temporary file beside `path` and rename it to `path` when `write`
+/// succeeds: the path holds either the old content or the complete new one, never a part.
+/// A failed run removes its temporary file. The file's name says what it is
+/// (`.NAME.nccomp-PID-XXXXXX.tmp`), and one left by a run that was killed (its process is
+/// gone) is removed by the next run writing the same file.
+fn write_atomically_with<T>(
+    path: &Path,
+    write: impl FnOnce(&mut std::fs::File) -> nccomp::Result<T>,
+) -> nccomp::Result<T> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -1272,9 +1296,15 @@ fn write_atomically(path: &Path, bytes: &[u8]) -> nccomp::Result<()> {
             ),
         )));
     }
+    let name = path
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let prefix = format!(".{name}.nccomp-");
+    remove_stale_temporaries(dir, &prefix);
     // tempfile's own error names the temporary path, which means nothing to the user.
     let mut tmp = tempfile::Builder::new()
-        .prefix(".nccomp-")
+        .prefix(&format!("{prefix}{}-", std::process::id()))
+        .suffix(".tmp")
         .tempfile_in(dir)
         .map_err(|e| {
             io(std::io::Error::new(
@@ -1286,7 +1316,7 @@ fn write_atomically(path: &Path, bytes: &[u8]) -> nccomp::Result<()> {
                 ),
             ))
         })?;
-    tmp.write_all(bytes).map_err(io)?;
+    let value = write(tmp.as_file_mut())?;
     // A temporary file is private (0600); the program should look like any other file the
     // user writes, or keep the permissions of the file it replaces.
     #[cfg(unix)]
@@ -1300,5 +1330,34 @@ fn write_atomically(path: &Path, bytes: &[u8]) -> nccomp::Result<()> {
     }
     tmp.as_file().sync_all().map_err(io)?;
     tmp.persist(path).map_err(|e| io(e.error))?;
-    Ok(())
+    Ok(value)
+}
+
+/// Remove the temporary files `prefix PID-XXXXXX.tmp` in `dir` whose process no longer
+/// runs: what a run killed before its rename left behind. Only where the process table
+/// can be read (`/proc`); elsewhere they stay, to be deleted by hand.
+fn remove_stale_temporaries(dir: &Path, prefix: &str) {
+    let proc = Path::new("/proc");
+    if !proc.join("self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let Some(rest) = file_name
+            .to_str()
+            .and_then(|n| n.strip_prefix(prefix))
+            .filter(|r| r.ends_with(".tmp"))
+        else {
+            continue;
+        };
+        let Some(pid) = rest.split('-').next().and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        if !proc.join(pid.to_string()).exists() {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
 }

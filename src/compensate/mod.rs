@@ -13,6 +13,7 @@ mod gcodes;
 mod lathe;
 mod nominal;
 mod split;
+mod stream;
 mod summary;
 mod tcp;
 mod tcp_vector;
@@ -30,6 +31,7 @@ use crate::nc::number::{decimals_for, scaled};
 use crate::nc::{self, Edit, Token, TokenKind, Value};
 use exact::{Position, Unit};
 use gcodes::GCode;
+use stream::Run;
 use words::{BlockMotion, MoveKind};
 
 /// The code of diagnostics about travel limits ([`Diagnostic::code`]): a block refused
@@ -278,73 +280,24 @@ impl<'m> Compensator<'m> {
         out: &mut Vec<u8>,
         trace: bool,
     ) -> (Summary, Vec<Diagnostic>) {
-        let mut summary = Summary {
-            zero_model: self.zero_model,
-            trace: trace.then(Vec::new),
-            ..Summary::default()
-        };
         if self.zero_model {
             // Nothing can change: the program passes byte for byte, whatever it holds.
             out.extend_from_slice(src);
-            summary.lines = nc::lines(src).count();
+            let summary = Summary {
+                zero_model: true,
+                lines: nc::lines(src).count(),
+                trace: trace.then(Vec::new),
+                ..Summary::default()
+            };
             return (summary, Vec::new());
         }
-        let mut state = self.start_state();
-        let mut tokens: Vec<Token> = Vec::new();
-        let mut edits: Vec<Edit> = Vec::new();
-        let mut errors: Vec<Diagnostic> = Vec::new();
+        let mut run = Run::new(self, trace);
         for line in nc::lines(src) {
-            summary.lines += 1;
-            nc::parse_line(line.content, &mut tokens);
-            edits.clear();
-            let at = |offset: usize, message: String| {
-                Diagnostic::at(path, src, line.offset + offset, message)
-            };
-            let blocks = summary.motion_blocks;
-            let result = self
-                .select(&line, &tokens, &mut state, &mut summary, &at)
-                .and_then(|()| {
-                    let pass = &self.passes[state.pass];
-                    pass.block(&line, &tokens, &mut state, &mut edits, &mut summary, &at)
-                });
-            let pass = &self.passes[state.pass];
-            if summary.motion_blocks > blocks {
-                if pass.turning {
-                    summary.turning_blocks += summary.motion_blocks - blocks;
-                }
-                summary.note_chain(&self.machine.tool_chains[pass.chain].name);
+            if !run.line(&line, path, out) {
+                break;
             }
-            if let Err(d) = result {
-                errors.push(d);
-                if errors.len() >= self.passes[state.pass].options.max_errors {
-                    break;
-                }
-            }
-            let pass = &self.passes[state.pass];
-            let n = pass.kin.len();
-            if let Some(s) = summary.trace.as_mut().and_then(|t| t.last_mut())
-                && s.line == line.number
-            {
-                s.nominal = state.nominal[..n].to_vec();
-                s.written = state.emitted[..n].to_vec();
-                s.chain = pass.chain;
-            }
-            if let Some(number) = tokens.iter().find_map(|t| match &t.kind {
-                TokenKind::Word(w) if w.letter == b'N' => {
-                    let digits = &line.content[w.value_span.clone()];
-                    std::str::from_utf8(digits)
-                        .ok()?
-                        .parse::<u64>()
-                        .ok()
-                        .map(|v| (v, digits.len()))
-                }
-                _ => None,
-            }) {
-                state.last_n = Some(number);
-            }
-            nc::emit_line(&line, &mut edits, out);
         }
-        (summary, errors)
+        run.finish_all()
     }
 
     /// The modal state at the program start.

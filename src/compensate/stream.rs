@@ -1,0 +1,309 @@
+//! Driving the pass over a program line by line: from a slice in memory ([`Compensator::run`])
+//! or streamed from a reader to a writer in bounded memory ([`Compensator::run_stream`]).
+//!
+//! Both feed the same [`Run`], so a streamed program comes out byte for byte as it does
+//! in memory. The stream is read in chunks and cut at the last line ending of each; lines
+//! are handed to the pass as slices of the chunk (no copy, no allocation per line), and
+//! the output is written in chunks as well. Memory is bounded by the chunk size and the
+//! longest line, whatever the length of the program.
+
+use std::io::{ErrorKind, Read, Write};
+
+use super::{Compensator, State, Summary};
+use crate::diag::{Diagnostic, Error};
+use crate::nc::{self, Edit, Token, TokenKind};
+
+/// Bytes read at a time; a longer line makes the buffer grow to hold it.
+pub(super) const CHUNK: usize = 256 * 1024;
+
+/// The pass over one program: its modal state, scratch buffers reused from line to line,
+/// and what it has found so far.
+pub(super) struct Run<'c, 'm> {
+    comp: &'c Compensator<'m>,
+    state: State,
+    tokens: Vec<Token>,
+    edits: Vec<Edit>,
+    errors: Vec<Diagnostic>,
+    summary: Summary,
+}
+
+impl<'c, 'm> Run<'c, 'm> {
+    pub(super) fn new(comp: &'c Compensator<'m>, trace: bool) -> Self {
+        Run {
+            comp,
+            state: comp.start_state(),
+            tokens: Vec::new(),
+            edits: Vec::new(),
+            errors: Vec::new(),
+            summary: Summary {
+                zero_model: comp.zero_model,
+                trace: trace.then(Vec::new),
+                ..Summary::default()
+            },
+        }
+    }
+
+    /// Whether a block has been refused (the output is then of no use).
+    pub(super) fn failed(&self) -> bool {
+        !self.errors.is_empty()
+    }
+
+    /// Compensate one line (of the file `path`) and append it to `out`. False when the
+    /// pass has refused as many blocks as it may and should stop.
+    pub(super) fn line(&mut self, line: &nc::Line<'_>, path: &str, out: &mut Vec<u8>) -> bool {
+        let comp = self.comp;
+        let state = &mut self.state;
+        let summary = &mut self.summary;
+        summary.lines += 1;
+        nc::parse_line(line.content, &mut self.tokens);
+        self.edits.clear();
+        let at = |offset: usize, message: String| in_line(path, line, offset, message);
+        let tokens = &self.tokens;
+        let edits = &mut self.edits;
+        let blocks = summary.motion_blocks;
+        let result = comp
+            .select(line, tokens, state, summary, &at)
+            .and_then(|()| comp.passes[state.pass].block(line, tokens, state, edits, summary, &at));
+        let pass = &comp.passes[state.pass];
+        if summary.motion_blocks > blocks {
+            if pass.turning {
+                summary.turning_blocks += summary.motion_blocks - blocks;
+            }
+            summary.note_chain(&comp.machine.tool_chains[pass.chain].name);
+        }
+        if let Err(d) = result {
+            self.errors.push(d);
+            if self.errors.len() >= pass.options.max_errors {
+                return false;
+            }
+        }
+        let n = pass.kin.len();
+        if let Some(s) = summary.trace.as_mut().and_then(|t| t.last_mut())
+            && s.line == line.number
+        {
+            s.nominal = state.nominal[..n].to_vec();
+            s.written = state.emitted[..n].to_vec();
+            s.chain = pass.chain;
+        }
+        if let Some(number) = tokens.iter().find_map(|t| match &t.kind {
+            TokenKind::Word(w) if w.letter == b'N' => {
+                let digits = &line.content[w.value_span.clone()];
+                std::str::from_utf8(digits)
+                    .ok()?
+                    .parse::<u64>()
+                    .ok()
+                    .map(|v| (v, digits.len()))
+            }
+            _ => None,
+        }) {
+            state.last_n = Some(number);
+        }
+        nc::emit_line(line, &mut self.edits, out);
+        true
+    }
+
+    /// The summary, or every block refused.
+    pub(super) fn finish(self) -> crate::Result<Summary> {
+        Compensator::refusing(self.finish_all())
+    }
+
+    /// The summary and the blocks refused.
+    pub(super) fn finish_all(self) -> (Summary, Vec<Diagnostic>) {
+        (self.summary, self.errors)
+    }
+}
+
+/// A diagnostic at byte `offset` of `line`'s content, as [`Diagnostic::at`] gives it for
+/// the whole file (a last line's stray `\r` is not shown).
+fn in_line(path: &str, line: &nc::Line<'_>, offset: usize, message: String) -> Diagnostic {
+    let offset = offset.min(line.content.len());
+    let mut source_line = String::from_utf8_lossy(line.content).into_owned();
+    if line.ending.is_empty() && source_line.ends_with('\r') {
+        source_line.pop();
+    }
+    Diagnostic {
+        path: path.to_string(),
+        line: line.number,
+        column: String::from_utf8_lossy(&line.content[..offset])
+            .chars()
+            .count()
+            + 1,
+        message,
+        source_line,
+        code: None,
+    }
+}
+
+/// Reads a stream in chunks cut after their last line ending.
+struct Chunks<R> {
+    input: R,
+    buf: Vec<u8>,
+    /// Bytes of `buf` read and not yet handed out.
+    filled: usize,
+    /// Bytes at the start of `buf` handed out by the last [`Chunks::next`].
+    taken: usize,
+    /// Line number and file offset of the first line of the next chunk, less one line.
+    lines: usize,
+    offset: usize,
+    eof: bool,
+}
+
+impl<R: Read> Chunks<R> {
+    fn new(input: R) -> Self {
+        Self::with_capacity(input, CHUNK)
+    }
+
+    fn with_capacity(input: R, capacity: usize) -> Self {
+        Chunks {
+            input,
+            buf: vec![0; capacity.max(1)],
+            filled: 0,
+            taken: 0,
+            lines: 0,
+            offset: 0,
+            eof: false,
+        }
+    }
+
+    /// The next run of whole lines (the last one may lack its ending at the end of the
+    /// input), with the number of lines before it and its offset in the stream; `None` at
+    /// the end.
+    fn next(&mut self) -> std::io::Result<Option<(&[u8], usize, usize)>> {
+        self.buf.copy_within(self.taken..self.filled, 0);
+        self.filled -= self.taken;
+        self.offset += self.taken;
+        self.taken = 0;
+        loop {
+            let cut = if self.eof {
+                self.filled
+            } else {
+                self.buf[..self.filled]
+                    .iter()
+                    .rposition(|&b| b == b'\n')
+                    .map_or(0, |i| i + 1)
+            };
+            // Read more unless a good share of the buffer holds whole lines.
+            if self.eof || (cut > 0 && self.filled >= self.buf.len() / 2) {
+                if cut == 0 {
+                    return Ok(None);
+                }
+                self.taken = cut;
+                let chunk = &self.buf[..cut];
+                let before = self.lines;
+                self.lines += chunk.iter().filter(|&&b| b == b'\n').count();
+                return Ok(Some((chunk, before, self.offset)));
+            }
+            if self.filled == self.buf.len() {
+                // A line longer than the buffer.
+                self.buf.resize(self.buf.len() * 2, 0);
+            }
+            match self.input.read(&mut self.buf[self.filled..]) {
+                Ok(0) => self.eof = true,
+                Ok(k) => self.filled += k,
+                Err(e) if e.kind() == ErrorKind::Interrupted => {}
+                Err(e) => return Err(e),
+            }
+        }
+    }
+}
+
+impl Compensator<'_> {
+    /// Compensate the program read from `input` (named `input_name` in messages), writing
+    /// the result to `output` (named `output_name`) as it goes, in memory bounded by a
+    /// chunk and the longest line. The bytes written are those [`Self::run`] appends.
+    ///
+    /// On an error (a refused block, a read or write failure) part of the output may have
+    /// been written: write to a temporary file and keep it only on success. Once a block is
+    /// refused nothing more is written, but the rest of the program is still checked (up
+    /// to `Options::max_errors` refusals).
+    pub fn run_stream(
+        &self,
+        input: impl Read,
+        input_name: &str,
+        mut output: impl Write,
+        output_name: &str,
+    ) -> crate::Result<Summary> {
+        let read_error = |source| Error::Io {
+            path: input_name.to_string(),
+            source,
+        };
+        let write_error = |source| Error::Io {
+            path: output_name.to_string(),
+            source,
+        };
+        let mut chunks = Chunks::new(input);
+        if self.zero_model {
+            let mut lines = 0;
+            while let Some((chunk, before, _)) = chunks.next().map_err(read_error)? {
+                output.write_all(chunk).map_err(write_error)?;
+                lines = before + nc::lines(chunk).count();
+            }
+            output.flush().map_err(write_error)?;
+            return Ok(Summary {
+                zero_model: true,
+                lines,
+                ..Summary::default()
+            });
+        }
+        let mut pass = Run::new(self, false);
+        let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
+        'chunks: while let Some((chunk, before, offset)) = chunks.next().map_err(read_error)? {
+            for mut line in nc::lines(chunk) {
+                line.number += before;
+                line.offset += offset;
+                let go_on = pass.line(&line, input_name, &mut out);
+                if pass.failed() {
+                    out.clear();
+                }
+                if !go_on {
+                    break 'chunks;
+                }
+            }
+            output.write_all(&out).map_err(write_error)?;
+            out.clear();
+        }
+        if !pass.failed() {
+            output.flush().map_err(write_error)?;
+        }
+        pass.finish()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Hands out 1 to 3 bytes per read.
+    struct Trickle<'a>(&'a [u8], usize);
+
+    impl Read for Trickle<'_> {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            self.1 += 1;
+            let k = (1 + self.1 % 3).min(buf.len()).min(self.0.len());
+            buf[..k].copy_from_slice(&self.0[..k]);
+            self.0 = &self.0[k..];
+            Ok(k)
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn chunks_are_whole_lines_in_order(
+            bytes in prop::collection::vec(prop::sample::select(b"ab\r\n".to_vec()), 0..200),
+            capacity in 1usize..12,
+        ) {
+            let mut chunks = Chunks::with_capacity(Trickle(&bytes, 0), capacity);
+            let mut joined = Vec::new();
+            while let Some((chunk, before, offset)) = chunks.next().unwrap() {
+                prop_assert!(!chunk.is_empty());
+                prop_assert_eq!(offset, joined.len());
+                prop_assert_eq!(before, joined.iter().filter(|&&b| b == b'\n').count());
+                joined.extend_from_slice(chunk);
+                // Only the input's last line may come without its ending.
+                prop_assert!(chunk.ends_with(b"\n") || joined.len() == bytes.len());
+            }
+            prop_assert_eq!(joined, bytes);
+        }
+    }
+}
