@@ -504,6 +504,10 @@ struct CompensateArgs {
     /// With --check: the committed compensated program to compare.
     #[arg(long, value_name = "OUTPUT", requires = "check")]
     expected: Option<PathBuf>,
+    /// Threads: 1 runs the pass alone; 2 adds a helper that solves blocks ahead on a
+    /// second core. The output is the same either way.
+    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=2))]
+    threads: u64,
     /// Print no summary.
     #[arg(long, short = 'q')]
     quiet: bool,
@@ -617,7 +621,11 @@ fn is_std(path: &Option<PathBuf>) -> bool {
 fn compensate(args: &CompensateArgs) -> nccomp::Result<Status> {
     let machine = machine_file::load(&args.pass.machine)?;
     let errors = error_file::load(&args.pass.errors, &machine)?;
-    let comp = Compensator::new(&machine, &errors, args.pass.options()?)?;
+    let options = Options {
+        threads: args.threads as usize,
+        ..args.pass.options()?
+    };
+    let comp = Compensator::new(&machine, &errors, options)?;
     // The program streams through in bounded memory, to a temporary file that takes the
     // output's place only when every block has been compensated.
     let (input, name): (Box<dyn Read>, String) = if is_std(&args.input) {

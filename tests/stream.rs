@@ -60,14 +60,24 @@ fn both(comp: &Compensator, src: &[u8], step: usize) -> [Result<(Vec<u8>, Summar
     [memory, streamed]
 }
 
+/// The in-memory run against the streamed one, alone and with a helper thread solving
+/// ahead (`comp` runs alone).
 fn assert_same(comp: &Compensator, src: &[u8], step: usize, what: &str) {
     let [memory, streamed] = both(comp, src, step);
-    match (&memory, &streamed) {
-        (Ok((a, sa)), Ok((b, sb))) => {
-            assert!(a == b, "{what}: streamed output differs");
-            assert_eq!(sa, sb, "{what}: summaries differ");
+    let mut two = comp.clone();
+    two.set_threads(2);
+    let [_, pipelined] = both(&two, src, step);
+    for (run, name) in [
+        (&streamed, "streamed"),
+        (&pipelined, "with a helper thread"),
+    ] {
+        match (&memory, run) {
+            (Ok((a, sa)), Ok((b, sb))) => {
+                assert!(a == b, "{what}: {name} output differs");
+                assert_eq!(sa, sb, "{what}: {name}: summaries differ");
+            }
+            _ => assert_eq!(&memory, run, "{what}: {name}"),
         }
-        _ => assert_eq!(memory, streamed, "{what}"),
     }
 }
 
@@ -227,10 +237,17 @@ impl Write for FullDisk {
 fn a_full_disk_is_an_error_naming_the_output() {
     let src = program::program(6_000);
     let (m, e) = fixture("ac_trunnion");
-    let comp = Compensator::new(&m, &e, Options::default()).unwrap();
+    let mut comp = Compensator::new(&m, &e, Options::default()).unwrap();
     let mut whole = Vec::new();
     comp.run(&src, "p.nc", &mut whole).unwrap();
-    for room in [0, 1, 100_000, whole.len() - 1] {
+    for (room, threads) in [
+        (0, 1),
+        (1, 2),
+        (100_000, 1),
+        (100_000, 2),
+        (whole.len() - 1, 2),
+    ] {
+        comp.set_threads(threads);
         let out = FullDisk { room, written: 0 };
         match comp.run_stream(&src[..], "p.nc", out, "out.nc") {
             Err(Error::Io { path, source }) => {
@@ -266,8 +283,9 @@ fn a_read_error_is_an_error_naming_the_input() {
     let src = program::program(6_000);
     let (m, e) = fixture("ac_trunnion");
     for errors in [e.clone(), nccomp::model::ErrorModel::zero(&m)] {
-        let comp = Compensator::new(&m, &errors, Options::default()).unwrap();
-        for good in [0, 10, 300_000] {
+        let mut comp = Compensator::new(&m, &errors, Options::default()).unwrap();
+        for (good, threads) in [(0, 1), (10, 2), (300_000, 1), (300_000, 2)] {
+            comp.set_threads(threads);
             let input = FailingRead { bytes: &src, good };
             match comp.run_stream(input, "p.nc", Vec::new(), "out.nc") {
                 Err(Error::Io { path, source }) => {

@@ -12,6 +12,7 @@ mod exact;
 mod gcodes;
 mod lathe;
 mod nominal;
+mod presolve;
 mod split;
 mod stream;
 mod summary;
@@ -61,6 +62,9 @@ pub struct Options {
     /// Split G1 moves whose compensated path strays further than this from the nominal
     /// path between their ends; `None`: one block out for every block in.
     pub path: Option<crate::kinematics::path::PathTolerance>,
+    /// Threads for [`Compensator::run_stream`]: 1 runs the pass alone; 2 or more add a
+    /// helper that solves blocks ahead (the output is the same).
+    pub threads: usize,
 }
 
 impl Default for Options {
@@ -73,6 +77,7 @@ impl Default for Options {
             max_errors: 20,
             hold: Vec::new(),
             path: None,
+            threads: 1,
         }
     }
 }
@@ -187,6 +192,8 @@ struct State {
     optional_line: [usize; MAX_AXES],
     /// Line of the optional block that left variable k unsettled.
     corrected_line: [usize; MAX_AXES],
+    /// Solutions worked out ahead by a helper thread.
+    presolved: presolve::Presolved,
 }
 
 impl<'m> Compensator<'m> {
@@ -347,6 +354,7 @@ impl<'m> Compensator<'m> {
             unsettled: 0,
             optional_line: [0; MAX_AXES],
             corrected_line: [0; MAX_AXES],
+            presolved: presolve::Presolved::default(),
         };
         for v in 0..first.kin.len() {
             state.decimals[v] = first.res_decimals(v, Unit::MM);
@@ -582,9 +590,17 @@ impl<'m> Pass<'m> {
         let mut hold = self.hold;
         let mut at_limit = 0u32;
         let sol = loop {
-            let sol =
-                self.kin
-                    .compensate(&state.nominal[..n], state.length, hold, &self.options.solve);
+            let sol = state
+                .presolved
+                .take(line.number, &state.nominal[..n], state.length, hold)
+                .unwrap_or_else(|| {
+                    self.kin.compensate(
+                        &state.nominal[..n],
+                        state.length,
+                        hold,
+                        &self.options.solve,
+                    )
+                });
             // Only rotary axes: holding one costs direction, never position.
             let past = (0..n).find(|&v| {
                 hold & (1 << v) == 0

@@ -9,6 +9,7 @@
 
 use std::io::{ErrorKind, Read, Write};
 
+use super::presolve::{Ahead, Predictor};
 use super::{Compensator, State, Summary};
 use crate::diag::{Diagnostic, Error};
 use crate::nc::{self, Edit, Token, TokenKind};
@@ -102,6 +103,36 @@ impl<'c, 'm> Run<'c, 'm> {
         true
     }
 
+    /// Take the solutions solved ahead for the next chunk; gives back the spent ones.
+    fn ahead(&mut self, ahead: Vec<Ahead>) -> Vec<Ahead> {
+        self.state.presolved.refill(ahead)
+    }
+
+    /// Run the lines of `chunk` (after `before` lines, at `offset` in the stream),
+    /// appending the output to `out` while no block has been refused. False when the pass
+    /// should stop.
+    fn chunk(
+        &mut self,
+        chunk: &[u8],
+        before: usize,
+        offset: usize,
+        path: &str,
+        out: &mut Vec<u8>,
+    ) -> bool {
+        for mut line in nc::lines(chunk) {
+            line.number += before;
+            line.offset += offset;
+            let go_on = self.line(&line, path, out);
+            if self.failed() {
+                out.clear();
+            }
+            if !go_on {
+                return false;
+            }
+        }
+        true
+    }
+
     /// The summary, or every block refused.
     pub(super) fn finish(self) -> crate::Result<Summary> {
         Compensator::refusing(self.finish_all())
@@ -110,6 +141,85 @@ impl<'c, 'm> Run<'c, 'm> {
     /// The summary and the blocks refused.
     pub(super) fn finish_all(self) -> (Summary, Vec<Diagnostic>) {
         (self.summary, self.errors)
+    }
+}
+
+impl Compensator<'_> {
+    /// Set `Options::threads` (it changes how fast, never what, the pass writes).
+    pub fn set_threads(&mut self, threads: usize) {
+        self.options.threads = threads;
+    }
+
+    /// The pass over `chunks` with a helper thread solving each chunk ahead (see
+    /// `presolve`): the reading and the pass stay on this thread, in order.
+    fn run_ahead<R: Read>(
+        &self,
+        chunks: &mut Chunks<R>,
+        input_name: &str,
+        output: &mut impl Write,
+        output_name: &str,
+        pass: &mut Pass<'_, '_>,
+    ) -> crate::Result<()> {
+        use std::sync::mpsc::sync_channel;
+        type ToHelper = (Vec<u8>, usize, usize, Vec<Ahead>);
+        std::thread::scope(|scope| {
+            let (to_helper, work) = sync_channel::<ToHelper>(1);
+            let (to_pass, done) = sync_channel::<ToHelper>(1);
+            scope.spawn(move || {
+                let mut predictor = Predictor::new(self);
+                for (bytes, before, offset, mut ahead) in work {
+                    ahead.clear();
+                    predictor.chunk(self, &bytes, before, &mut ahead);
+                    if to_pass.send((bytes, before, offset, ahead)).is_err() {
+                        break;
+                    }
+                }
+            });
+            let mut spare: Vec<(Vec<u8>, Vec<Ahead>)> = Vec::new();
+            let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
+            let mut in_flight = 0;
+            let mut reading = true;
+            loop {
+                // Keep the helper a chunk ahead of the pass.
+                while reading && in_flight < 2 {
+                    match chunks.next().map_err(|source| Error::Io {
+                        path: input_name.to_string(),
+                        source,
+                    })? {
+                        Some((chunk, before, offset)) => {
+                            let (mut bytes, ahead) = spare.pop().unwrap_or_default();
+                            bytes.clear();
+                            bytes.extend_from_slice(chunk);
+                            if to_helper.send((bytes, before, offset, ahead)).is_err() {
+                                break;
+                            }
+                            in_flight += 1;
+                        }
+                        None => reading = false,
+                    }
+                }
+                if in_flight == 0 {
+                    return Ok(());
+                }
+                let Ok((bytes, before, offset, ahead)) = done.recv() else {
+                    // The helper is gone (it cannot fail; this is a panic, which the
+                    // scope passes on).
+                    return Ok(());
+                };
+                in_flight -= 1;
+                let spent = pass.ahead(ahead);
+                let go_on = pass.chunk(&bytes, before, offset, input_name, &mut out);
+                output.write_all(&out).map_err(|source| Error::Io {
+                    path: output_name.to_string(),
+                    source,
+                })?;
+                out.clear();
+                spare.push((bytes, spent));
+                if !go_on {
+                    return Ok(());
+                }
+            }
+        })
     }
 }
 
@@ -247,20 +357,17 @@ impl Compensator<'_> {
         }
         let mut pass = Run::new(self, false);
         let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
-        'chunks: while let Some((chunk, before, offset)) = chunks.next().map_err(read_error)? {
-            for mut line in nc::lines(chunk) {
-                line.number += before;
-                line.offset += offset;
-                let go_on = pass.line(&line, input_name, &mut out);
-                if pass.failed() {
-                    out.clear();
-                }
+        if self.options.threads > 1 {
+            self.run_ahead(&mut chunks, input_name, &mut output, output_name, &mut pass)?;
+        } else {
+            while let Some((chunk, before, offset)) = chunks.next().map_err(read_error)? {
+                let go_on = pass.chunk(chunk, before, offset, input_name, &mut out);
+                output.write_all(&out).map_err(write_error)?;
+                out.clear();
                 if !go_on {
-                    break 'chunks;
+                    break;
                 }
             }
-            output.write_all(&out).map_err(write_error)?;
-            out.clear();
         }
         if !pass.failed() {
             output.flush().map_err(write_error)?;

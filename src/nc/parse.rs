@@ -326,11 +326,47 @@ fn number(i: &[u8]) -> PResult<'_, Value> {
 
 /// The number text as `str::parse::<f64>` reads it (without a leading `+`).
 fn to_f64(text: &[u8]) -> f64 {
+    if let Some(v) = plain_decimal(text) {
+        return v;
+    }
     let text = text.strip_prefix(b"+").unwrap_or(text);
     std::str::from_utf8(text)
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(f64::NAN)
+}
+
+/// A number of at most 2^53 in units of its last digit and at most 22 decimals, exactly as
+/// `str::parse` reads it, without its generality: both the digits (as an integer) and the
+/// power of ten are exact in an f64, so their quotient is the correctly rounded value
+/// (Clinger's fast path). `None` for anything else. `text` is `[+-]?digits[.digits]`.
+#[inline]
+fn plain_decimal(text: &[u8]) -> Option<f64> {
+    const POW10: [f64; 23] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+        1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+    ];
+    let (negative, digits) = match text.first()? {
+        b'-' => (true, &text[1..]),
+        b'+' => (false, &text[1..]),
+        _ => (false, text),
+    };
+    let mut mantissa: u64 = 0;
+    let mut decimals = None;
+    for (i, &b) in digits.iter().enumerate() {
+        match b {
+            b'0'..=b'9' => {
+                mantissa = mantissa * 10 + u64::from(b - b'0');
+                if mantissa > 1 << 53 {
+                    return None;
+                }
+            }
+            b'.' if decimals.is_none() => decimals = Some(digits.len() - i - 1),
+            _ => return None,
+        }
+    }
+    let value = mantissa as f64 / *POW10.get(decimals.unwrap_or(0))?;
+    Some(if negative { -value } else { value })
 }
 
 /// `[ ... ]` with nested brackets, to the matching `]` or to the end of the line.
@@ -371,6 +407,42 @@ fn parameter(i: &[u8]) -> PResult<'_, &[u8]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    proptest::proptest! {
+        #[test]
+        fn plain_decimals_read_as_std_reads_them(
+            int in "[+-]?[0-9]{0,17}",
+            frac in proptest::option::of("[0-9]{0,24}"),
+        ) {
+            let text = match &frac {
+                Some(f) => format!("{int}.{f}"),
+                None => int.clone(),
+            };
+            let digits = text.trim_start_matches(['+', '-']);
+            proptest::prop_assume!(digits.bytes().any(|b| b.is_ascii_digit()));
+            let std: f64 = text.trim_start_matches('+').parse().unwrap();
+            let ours = to_f64(text.as_bytes());
+            proptest::prop_assert_eq!(ours.to_bits(), std.to_bits(), "{}", text);
+        }
+    }
+
+    #[test]
+    fn plain_decimal_edges() {
+        for text in [
+            "-0",
+            "0.",
+            ".5",
+            "-.5",
+            "9007199254740992",
+            "9007199254740993",
+            "1.0000000000000000000001",
+            "123.4567",
+            "-0.0000",
+        ] {
+            let std: f64 = text.parse().unwrap();
+            assert_eq!(to_f64(text.as_bytes()).to_bits(), std.to_bits(), "{text}");
+        }
+    }
 
     fn toks(s: &[u8]) -> Vec<Token> {
         let mut out = Vec::new();

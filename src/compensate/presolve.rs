@@ -1,0 +1,192 @@
+//! Solving ahead on a second core: the pipeline behind [`Compensator::run_stream`] with
+//! `Options::threads` = 2.
+//!
+//! The pass must run in order (each block's modal state comes from the blocks before it),
+//! but the costly part of a block, the solve, is a pure function of the nominal axis
+//! values, the tool length and the held axes. A helper thread reads each chunk of lines
+//! ahead of the pass, predicts those inputs with a light reading of the modal state (G90
+//! moves in mm or inches, tool lengths) and solves them. The pass takes a solution only
+//! when the inputs it has arrived at are bitwise the predicted ones, and solves itself
+//! otherwise (G91, TCP, arcs, anything the prediction does not follow): the output is the
+//! single-threaded output by construction.
+
+use super::gcodes::{self, GCode};
+use super::{Compensator, INCH};
+use crate::kinematics::{MAX_AXES, Solution};
+use crate::model::AxisKind;
+use crate::nc::{self, Token, TokenKind, Value};
+
+/// The inputs of one solve, bitwise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Key {
+    q: [u64; MAX_AXES],
+    length: u64,
+    hold: u32,
+}
+
+impl Key {
+    fn new(q: &[f64], length: f64, hold: u32) -> Self {
+        let mut bits = [0; MAX_AXES];
+        for (b, x) in bits.iter_mut().zip(q) {
+            *b = x.to_bits();
+        }
+        Key {
+            q: bits,
+            length: length.to_bits(),
+            hold,
+        }
+    }
+}
+
+/// A solve done ahead for a line.
+#[derive(Debug, Clone)]
+pub(super) struct Ahead {
+    line: usize,
+    key: Key,
+    solution: Solution,
+}
+
+/// The solutions worked out ahead for the chunk the pass is in, in line order.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Presolved {
+    ahead: Vec<Ahead>,
+    next: usize,
+}
+
+impl Presolved {
+    /// Hand over the solutions of the next chunk; returns the spent list for reuse.
+    pub(super) fn refill(&mut self, ahead: Vec<Ahead>) -> Vec<Ahead> {
+        self.next = 0;
+        std::mem::replace(&mut self.ahead, ahead)
+    }
+
+    /// The solution for `line` if it was solved ahead with these very inputs.
+    pub(super) fn take(
+        &mut self,
+        line: usize,
+        q: &[f64],
+        length: f64,
+        hold: u32,
+    ) -> Option<Solution> {
+        while self.ahead.get(self.next).is_some_and(|a| a.line < line) {
+            self.next += 1;
+        }
+        let a = self.ahead.get(self.next).filter(|a| a.line == line)?;
+        if a.key != Key::new(q, length, hold) {
+            return None;
+        }
+        self.next += 1;
+        Some(a.solution)
+    }
+}
+
+/// The helper's light reading of the program.
+pub(super) struct Predictor {
+    nominal: [f64; MAX_AXES],
+    inch: bool,
+    incremental: bool,
+    /// G43.4/G43.5 active, or arcs modal: the pass does not solve as predicted.
+    tcp: bool,
+    arcs: bool,
+    length: f64,
+    tool: Option<u32>,
+    tokens: Vec<Token>,
+}
+
+impl Predictor {
+    pub(super) fn new(comp: &Compensator<'_>) -> Self {
+        Predictor {
+            nominal: [0.0; MAX_AXES],
+            inch: false,
+            incremental: false,
+            tcp: false,
+            arcs: false,
+            length: comp.machine.tool.length,
+            tool: None,
+            tokens: Vec::new(),
+        }
+    }
+
+    /// Solve ahead for the lines of `chunk` (whose first line is number `before + 1`),
+    /// appending to `out`.
+    pub(super) fn chunk(
+        &mut self,
+        comp: &Compensator<'_>,
+        chunk: &[u8],
+        before: usize,
+        out: &mut Vec<Ahead>,
+    ) {
+        let n = comp.kin.len();
+        for line in nc::lines(chunk) {
+            nc::parse_line(line.content, &mut self.tokens);
+            let mut moves = false;
+            let mut skip = false;
+            let mut g43 = false;
+            let mut h = None;
+            for t in &self.tokens {
+                let TokenKind::Word(w) = &t.kind else {
+                    if t.kind == TokenKind::BlockDelete {
+                        skip = true;
+                    }
+                    continue;
+                };
+                let Value::Number { value, .. } = w.value else {
+                    skip |= w.letter != b'N';
+                    continue;
+                };
+                match w.letter {
+                    b'G' => match gcodes::classify((value * 10.0).round() as i64) {
+                        GCode::Motion => self.arcs = false,
+                        GCode::Arc => self.arcs = true,
+                        GCode::Inch => self.inch = true,
+                        GCode::Millimetre => self.inch = false,
+                        GCode::Absolute => self.incremental = false,
+                        GCode::Incremental => self.incremental = true,
+                        GCode::ToolLength => g43 = true,
+                        GCode::ToolLengthOff => {
+                            self.length = comp.machine.tool.length;
+                            self.tcp = false;
+                        }
+                        GCode::ToolCentrePoint | GCode::ToolCentrePointVector => self.tcp = true,
+                        GCode::Harmless | GCode::WorkOffset | GCode::CancelCycle => {}
+                        _ => skip = true,
+                    },
+                    b'H' => h = Some(value),
+                    b'T' => self.tool = Some(value as u32),
+                    letter => {
+                        if let Some(v) = letter
+                            .is_ascii_uppercase()
+                            .then(|| comp.var_of_letter[(letter - b'A') as usize])
+                            .flatten()
+                        {
+                            let linear = comp.kin.kind(v) == AxisKind::Linear;
+                            self.nominal[v] = if self.inch && linear {
+                                value * INCH
+                            } else {
+                                value
+                            };
+                            moves = true;
+                        }
+                    }
+                }
+            }
+            if g43 {
+                let number = h.map(|h| h as u32).or(self.tool);
+                if let Some(l) = number.and_then(|k| comp.machine.tool.lengths.get(&k)) {
+                    self.length = *l;
+                }
+            }
+            if moves && !skip && !self.incremental && !self.tcp && !self.arcs {
+                let q = &self.nominal[..n];
+                let solution = comp
+                    .kin
+                    .compensate(q, self.length, comp.hold, &comp.options.solve);
+                out.push(Ahead {
+                    line: before + line.number,
+                    key: Key::new(q, self.length, comp.hold),
+                    solution,
+                });
+            }
+        }
+    }
+}
