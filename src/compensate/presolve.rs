@@ -14,7 +14,7 @@ use super::gcodes::{self, GCode};
 use super::{Compensator, INCH};
 use crate::kinematics::{MAX_AXES, Solution};
 use crate::model::AxisKind;
-use crate::nc::{self, Token, TokenKind, Value};
+use crate::nc;
 
 /// The inputs of one solve, bitwise.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -90,7 +90,7 @@ pub(super) struct Predictor {
     arcs: bool,
     length: f64,
     tool: Option<u32>,
-    tokens: Vec<Token>,
+    words: Vec<(u8, f64)>,
 }
 
 impl Predictor {
@@ -103,7 +103,7 @@ impl Predictor {
             arcs: false,
             length: comp.machine.tool.length,
             tool: None,
-            tokens: Vec::new(),
+            words: Vec::new(),
         }
     }
 
@@ -118,23 +118,15 @@ impl Predictor {
     ) {
         let n = comp.kin.len();
         for line in nc::lines(chunk) {
-            nc::parse_line(line.content, &mut self.tokens);
+            if !words(line.content, &mut self.words) {
+                continue;
+            }
             let mut moves = false;
             let mut skip = false;
             let mut g43 = false;
             let mut h = None;
-            for t in &self.tokens {
-                let TokenKind::Word(w) = &t.kind else {
-                    if t.kind == TokenKind::BlockDelete {
-                        skip = true;
-                    }
-                    continue;
-                };
-                let Value::Number { value, .. } = w.value else {
-                    skip |= w.letter != b'N';
-                    continue;
-                };
-                match w.letter {
+            for &(letter, value) in &self.words {
+                match letter {
                     b'G' => match gcodes::classify((value * 10.0).round() as i64) {
                         GCode::Motion => self.arcs = false,
                         GCode::Arc => self.arcs = true,
@@ -154,11 +146,7 @@ impl Predictor {
                     b'H' => h = Some(value),
                     b'T' => self.tool = Some(value as u32),
                     letter => {
-                        if let Some(v) = letter
-                            .is_ascii_uppercase()
-                            .then(|| comp.var_of_letter[(letter - b'A') as usize])
-                            .flatten()
-                        {
+                        if let Some(v) = comp.var_of_letter[(letter - b'A') as usize] {
                             let linear = comp.kin.kind(v) == AxisKind::Linear;
                             self.nominal[v] = if self.inch && linear {
                                 value * INCH
@@ -189,4 +177,56 @@ impl Predictor {
             }
         }
     }
+}
+
+/// The words of a line as (uppercase letter, value), read lightly: false when the line
+/// holds anything but plain words, spaces and comments (block delete, expressions,
+/// parameters, keywords), which the prediction leaves to the pass. The values are those
+/// the NC parser reads.
+fn words(content: &[u8], out: &mut Vec<(u8, f64)>) -> bool {
+    out.clear();
+    let mut i = 0;
+    let blank = |b: u8| b == b' ' || b == b'\t' || b == b'\r';
+    while i < content.len() {
+        let b = content[i];
+        if blank(b) {
+            i += 1;
+        } else if b == b'(' {
+            i = content[i..]
+                .iter()
+                .position(|&c| c == b')')
+                .map_or(content.len(), |p| i + p + 1);
+        } else if b == b';' {
+            return true;
+        } else if b.is_ascii_alphabetic() {
+            i += 1;
+            while i < content.len() && (content[i] == b' ' || content[i] == b'\t') {
+                i += 1;
+            }
+            let start = i;
+            if i < content.len() && (content[i] == b'+' || content[i] == b'-') {
+                i += 1;
+            }
+            let digits = i;
+            while i < content.len() && content[i].is_ascii_digit() {
+                i += 1;
+            }
+            let whole = i - digits;
+            let mut fraction = 0;
+            if i < content.len() && content[i] == b'.' {
+                i += 1;
+                while i < content.len() && content[i].is_ascii_digit() {
+                    i += 1;
+                    fraction += 1;
+                }
+            }
+            if whole + fraction == 0 {
+                return false;
+            }
+            out.push((b.to_ascii_uppercase(), nc::to_f64(&content[start..i])));
+        } else {
+            return false;
+        }
+    }
+    true
 }

@@ -8,6 +8,7 @@
 pub mod number;
 mod parse;
 
+pub(crate) use parse::to_f64;
 pub use parse::{lines, parse_line};
 
 use std::ops::Range;

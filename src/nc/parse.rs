@@ -325,7 +325,7 @@ fn number(i: &[u8]) -> PResult<'_, Value> {
 }
 
 /// The number text as `str::parse::<f64>` reads it (without a leading `+`).
-fn to_f64(text: &[u8]) -> f64 {
+pub(crate) fn to_f64(text: &[u8]) -> f64 {
     if let Some(v) = plain_decimal(text) {
         return v;
     }
