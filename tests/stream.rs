@@ -101,7 +101,9 @@ fn fixtures_stream_as_they_run_in_memory() {
         ("bc_trunnion", "bc_trunnion_demo", None, &[]),
         ("head_head", "head_head_demo", None, &[]),
         ("grinder", "grinder_demo", None, &[]),
-        ("mill_turn", "mill_turn_demo", Some("upper"), &["C"]),
+        ("mill_turn", "mill_turn_milling", None, &[]),
+        ("mill_turn", "mill_turn_turning", None, &[]),
+        ("mill_turn", "mill_turn_turning", Some("lower"), &[]),
     ];
     for &(machine, name, chain, hold) in cases {
         let (m, e) = fixture(machine);
@@ -319,4 +321,39 @@ fn an_error_at_the_last_line_fails_the_run_and_stops_the_output() {
     assert_eq!(ds[0].source_line, "G1 X0 Y0 Z10 A-200 C0");
     assert!(ds[0].message.contains("outside its travel"), "{}", ds[0]);
     assert!(out.len() < src.len() - 20, "the refused block was written");
+}
+
+#[test]
+fn tool_changes_between_chains_stream_as_they_run_in_memory() {
+    // The turning–milling centre's two turrets as a milling machine: T words switch the
+    // tool chain, which the helper's prediction does not follow past the first switch.
+    let (mut m, e) = fixture("mill_turn");
+    m.lathe = None;
+    let mut src = String::from("G21 G90 G17\nT5\nG0 X10. Y0. Z5. B0. C0.\n");
+    for k in 0..600 {
+        if k % 200 == 100 {
+            src.push_str(if k < 400 { "T11\n" } else { "T5\n" });
+        }
+        let t = f64::from(k) * 0.05;
+        // The lower turret has no Y axis.
+        let y = if (100..500).contains(&k) {
+            String::new()
+        } else {
+            format!(" Y{:.3}", 5.0 * t.sin())
+        };
+        src.push_str(&format!(
+            "G1 X{:.3}{y} Z{:.3} C{:.3}\n",
+            20.0 + 5.0 * t.cos(),
+            -1.0 - 0.005 * f64::from(k),
+            0.01 * f64::from(k)
+        ));
+    }
+    for split in [false, true] {
+        let comp = Compensator::new(&m, &e, options(split)).unwrap();
+        let mut out = Vec::new();
+        comp.run(src.as_bytes(), "p.nc", &mut out)
+            .map_err(|e| e.render())
+            .unwrap();
+        assert_same(&comp, src.as_bytes(), 1 << 12, &format!("split {split}"));
+    }
 }

@@ -94,6 +94,8 @@ pub struct Compensator<'m> {
     /// The tool chain a program starts in.
     start: usize,
     zero_model: bool,
+    /// `Options::threads`.
+    threads: usize,
 }
 
 /// The pass for one configuration: one tool chain, milling or turning.
@@ -241,6 +243,7 @@ impl<'m> Compensator<'m> {
             passes,
             start,
             zero_model: errors.is_zero(),
+            threads: options.threads,
         })
     }
 
@@ -592,7 +595,13 @@ impl<'m> Pass<'m> {
         let sol = loop {
             let sol = state
                 .presolved
-                .take(line.number, &state.nominal[..n], state.length, hold)
+                .take(
+                    line.number,
+                    state.pass,
+                    &state.nominal[..n],
+                    state.length,
+                    hold,
+                )
                 .unwrap_or_else(|| {
                     self.kin.compensate(
                         &state.nominal[..n],

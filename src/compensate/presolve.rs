@@ -9,6 +9,11 @@
 //! when the inputs it has arrived at are bitwise the predicted ones, and solves itself
 //! otherwise (G91, TCP, arcs, anything the prediction does not follow): the output is the
 //! single-threaded output by construction.
+//!
+//! The prediction follows the tool chain a program starts in. On machines whose tool
+//! chains list tools it stops at the first T word that selects another chain, and on a
+//! lathe it does not start (turning and milling change with the spindle's M codes): the
+//! pass then solves every block itself.
 
 use super::gcodes::{self, GCode};
 use super::{Compensator, INCH};
@@ -25,18 +30,21 @@ const PASS_SHARE: usize = 7;
 /// The inputs of one solve, bitwise.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Key {
+    /// The pass (tool chain and mode, index into `Compensator::passes`).
+    pass: usize,
     q: [u64; MAX_AXES],
     length: u64,
     hold: u32,
 }
 
 impl Key {
-    fn new(q: &[f64], length: f64, hold: u32) -> Self {
+    fn new(pass: usize, q: &[f64], length: f64, hold: u32) -> Self {
         let mut bits = [0; MAX_AXES];
         for (b, x) in bits.iter_mut().zip(q) {
             *b = x.to_bits();
         }
         Key {
+            pass,
             q: bits,
             length: length.to_bits(),
             hold,
@@ -70,6 +78,7 @@ impl Presolved {
     pub(super) fn take(
         &mut self,
         line: usize,
+        pass: usize,
         q: &[f64],
         length: f64,
         hold: u32,
@@ -78,7 +87,7 @@ impl Presolved {
             self.next += 1;
         }
         let a = self.ahead.get(self.next).filter(|a| a.line == line)?;
-        if a.key != Key::new(q, length, hold) {
+        if a.key != Key::new(pass, q, length, hold) {
             return None;
         }
         self.next += 1;
@@ -97,6 +106,9 @@ pub(super) struct Predictor {
     length: f64,
     tool: Option<u32>,
     words: Vec<(u8, f64)>,
+    /// The pass predicted (index into `Compensator::passes`); `None`: the program has
+    /// left what the prediction follows.
+    pass: Option<usize>,
     /// Lines read.
     count: usize,
 }
@@ -112,6 +124,7 @@ impl Predictor {
             length: comp.machine.tool.length,
             tool: None,
             words: Vec::new(),
+            pass: comp.machine.lathe.is_none().then_some(comp.start),
             count: 0,
         }
     }
@@ -125,8 +138,12 @@ impl Predictor {
         before: usize,
         out: &mut Vec<Ahead>,
     ) {
-        let n = comp.kin.len();
+        let tools_listed = comp.machine.tool_chains.iter().any(|c| !c.tools.is_empty());
         for line in nc::lines(chunk) {
+            let Some(index) = self.pass else {
+                return;
+            };
+            let pass = &comp.passes[index];
             if !words(line.content, &mut self.words) {
                 continue;
             }
@@ -153,10 +170,19 @@ impl Predictor {
                         _ => skip = true,
                     },
                     b'H' => h = Some(value),
-                    b'T' => self.tool = Some(value as u32),
+                    b'T' => {
+                        self.tool = Some(value as u32);
+                        // Another tool chain's axes start from where it was parked.
+                        if tools_listed
+                            && value != 0.0
+                            && comp.machine.chain_of_tool(value as u32) != Some(pass.chain)
+                        {
+                            self.pass = None;
+                        }
+                    }
                     letter => {
-                        if let Some(v) = comp.var_of_letter[(letter - b'A') as usize] {
-                            let linear = comp.kin.kind(v) == AxisKind::Linear;
+                        if let Some(v) = pass.var_of_letter[(letter - b'A') as usize] {
+                            let linear = pass.kin.kind(v) == AxisKind::Linear;
                             self.nominal[v] = if self.inch && linear {
                                 value * INCH
                             } else {
@@ -176,15 +202,22 @@ impl Predictor {
             // Without path splitting the pass has less to do per block than the helper:
             // it keeps one solve in `PASS_SHARE` to balance the two threads.
             self.count += 1;
-            let share = comp.options.path.is_none() && self.count % PASS_SHARE == 0;
-            if moves && !skip && !share && !self.incremental && !self.tcp && !self.arcs {
-                let q = &self.nominal[..n];
-                let solution = comp
+            let share = pass.options.path.is_none() && self.count.is_multiple_of(PASS_SHARE);
+            if self.pass.is_some()
+                && moves
+                && !skip
+                && !share
+                && !self.incremental
+                && !self.tcp
+                && !self.arcs
+            {
+                let q = &self.nominal[..pass.kin.len()];
+                let solution = pass
                     .kin
-                    .compensate(q, self.length, comp.hold, &comp.options.solve);
+                    .compensate(q, self.length, pass.hold, &pass.options.solve);
                 out.push(Ahead {
                     line: before + line.number,
-                    key: Key::new(q, self.length, comp.hold),
+                    key: Key::new(index, q, self.length, pass.hold),
                     solution,
                 });
             }

@@ -147,7 +147,7 @@ impl<'c, 'm> Run<'c, 'm> {
 impl Compensator<'_> {
     /// Set `Options::threads` (it changes how fast, never what, the pass writes).
     pub fn set_threads(&mut self, threads: usize) {
-        self.options.threads = threads;
+        self.threads = threads;
     }
 
     /// The pass over `chunks` with a helper thread solving each chunk ahead (see
@@ -158,7 +158,7 @@ impl Compensator<'_> {
         input_name: &str,
         output: &mut impl Write,
         output_name: &str,
-        pass: &mut Pass<'_, '_>,
+        pass: &mut Run<'_, '_>,
     ) -> crate::Result<()> {
         use std::sync::mpsc::sync_channel;
         type ToHelper = (Vec<u8>, usize, usize, Vec<Ahead>);
@@ -357,7 +357,7 @@ impl Compensator<'_> {
         }
         let mut pass = Run::new(self, false);
         let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
-        if self.options.threads > 1 {
+        if self.threads > 1 {
             self.run_ahead(&mut chunks, input_name, &mut output, output_name, &mut pass)?;
         } else {
             while let Some((chunk, before, offset)) = chunks.next().map_err(read_error)? {
