@@ -196,6 +196,8 @@ struct State {
     corrected_line: [usize; MAX_AXES],
     /// Solutions worked out ahead by a helper thread.
     presolved: presolve::Presolved,
+    /// Emptied texts of earlier edits, to write new ones in without allocating.
+    spare_texts: Vec<String>,
 }
 
 impl<'m> Compensator<'m> {
@@ -358,6 +360,7 @@ impl<'m> Compensator<'m> {
             optional_line: [0; MAX_AXES],
             corrected_line: [0; MAX_AXES],
             presolved: presolve::Presolved::default(),
+            spare_texts: Vec::new(),
         };
         for v in 0..first.kin.len() {
             state.decimals[v] = first.res_decimals(v, Unit::MM);

@@ -57,7 +57,15 @@ impl<'c, 'm> Run<'c, 'm> {
         let summary = &mut self.summary;
         summary.lines += 1;
         nc::parse_line(line.content, &mut self.tokens);
-        self.edits.clear();
+        // The texts of the last line's edits hold their allocations for this line's.
+        // (A few: edits made elsewhere do not take from them.)
+        for edit in self.edits.drain(..) {
+            if state.spare_texts.len() < 32 {
+                let mut text = edit.text;
+                text.clear();
+                state.spare_texts.push(text);
+            }
+        }
         let at = |offset: usize, message: String| in_line(path, line, offset, message);
         let tokens = &self.tokens;
         let edits = &mut self.edits;

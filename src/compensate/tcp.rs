@@ -187,7 +187,7 @@ impl Pass<'_> {
                     summary.words_added += 1;
                 }
             }
-            let x: f64 = text.parse().unwrap_or(value);
+            let x = crate::nc::to_f64(text.as_bytes());
             match tip_c {
                 Some(c) => state.tip_written[c] = if inch { x * INCH } else { x },
                 None => {

@@ -47,9 +47,9 @@ impl Pass<'_> {
                         state.emitted[v] = unit.to_mm(old);
                         state.written[v] = state.nominal_exact[v];
                     } else {
-                        let mut text = String::new();
+                        let mut text = state.spare_texts.pop().unwrap_or_default();
                         write_fixed(value, d, &mut text);
-                        state.emitted[v] = unit.to_mm(text.parse().unwrap_or(value));
+                        state.emitted[v] = unit.to_mm(nc::to_f64(text.as_bytes()));
                         state.written[v] = Position::Decimal {
                             value,
                             decimals: d,
@@ -87,9 +87,9 @@ impl Pass<'_> {
                         } else {
                             state.unsettled &= !(1 << v);
                         }
-                        let mut text = String::new();
+                        let mut text = state.spare_texts.pop().unwrap_or_default();
                         write_fixed(value, d, &mut text);
-                        state.emitted[v] = unit.to_mm(text.parse().unwrap_or(value));
+                        state.emitted[v] = unit.to_mm(nc::to_f64(text.as_bytes()));
                         state.written[v] = Position::Decimal {
                             value,
                             decimals: d,
@@ -181,7 +181,7 @@ impl Pass<'_> {
                     state.decimals[v] = d;
                     state.programmed |= bit;
                     if increment != units[v] {
-                        let mut text = String::new();
+                        let mut text = state.spare_texts.pop().unwrap_or_default();
                         exact::write_digits(k, e, &mut text);
                         edits.push(Edit {
                             at: number(&tokens[i]).2,
@@ -191,7 +191,7 @@ impl Pass<'_> {
                     }
                 }
                 None if k != 0 => {
-                    let mut text = String::new();
+                    let mut text = state.spare_texts.pop().unwrap_or_default();
                     exact::write_digits(k, e, &mut text);
                     edits.push(self.insertion(line.content, tokens, axis_words, v, &text));
                     summary.words_added += 1;

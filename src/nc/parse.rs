@@ -243,7 +243,11 @@ fn word(i: &[u8]) -> (usize, TokenKind) {
             Err(_) => (after_letter, &after_letter[..0]),
         };
     let value_start = i.len() - value_input.len();
-    let (len, value, value_span) = match value(value_input) {
+    let parsed = match plain_number(value_input) {
+        Some((n, value)) => Ok((&value_input[n..], value)),
+        None => value(value_input),
+    };
+    let (len, value, value_span) = match parsed {
         Ok((r, value)) => {
             let end = i.len() - r.len();
             (end, value, value_start..end)
@@ -301,6 +305,37 @@ fn function(i: &[u8]) -> PResult<'_, &[u8]> {
     };
     let n = i.len() - r.len();
     Ok((r, &i[..n]))
+}
+
+/// What [`value`] reads from a plain number (`[+-]?(digits[.digits?]|.digits)`, the usual
+/// case), without the parser combinators: its length and value. `None` for anything else,
+/// left to [`value`].
+#[inline]
+fn plain_number(i: &[u8]) -> Option<(usize, Value)> {
+    let digits = |from: usize| {
+        i.get(from..)
+            .map_or(0, |r| r.iter().take_while(|b| b.is_ascii_digit()).count())
+    };
+    let mut n = usize::from(matches!(i.first(), Some(b'+' | b'-')));
+    let whole = digits(n);
+    n += whole;
+    let frac = if i.get(n) == Some(&b'.') {
+        let frac = digits(n + 1);
+        if whole == 0 && frac == 0 {
+            return None;
+        }
+        n += 1 + frac;
+        frac
+    } else if whole == 0 {
+        return None;
+    } else {
+        0
+    };
+    let value = Value::Number {
+        value: to_f64(&i[..n]),
+        decimals: u8::try_from(frac).unwrap_or(u8::MAX),
+    };
+    Some((n, value))
 }
 
 /// `[+-]?(digits[.digits?]|.digits)`, as [`Value::Number`].
@@ -423,6 +458,17 @@ mod tests {
             let std: f64 = text.trim_start_matches('+').parse().unwrap();
             let ours = to_f64(text.as_bytes());
             proptest::prop_assert_eq!(ours.to_bits(), std.to_bits(), "{}", text);
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn plain_numbers_read_as_the_parser_reads_them(text in "[-+.0-9]{0,6}[-+.0-9#\\[a-z ]{0,4}") {
+            let fast = plain_number(text.as_bytes()).map(|(n, v)| (n, format!("{v:?}")));
+            let slow = value(text.as_bytes()).ok().and_then(|(r, v)| {
+                matches!(v, Value::Number { .. }).then(|| (text.len() - r.len(), format!("{v:?}")))
+            });
+            proptest::prop_assert_eq!(fast, slow, "{}", text);
         }
     }
 
