@@ -4,7 +4,7 @@ use super::exact::{self, Position};
 use super::{Edit, Pass, State, Summary};
 use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
-use crate::nc::number::{same_text, write_fixed};
+use crate::nc::number::{same_text, write_fixed_value};
 use crate::nc::{self, Token, TokenKind, Value};
 
 /// The value and decimals of a token known to be a numeric word, and its value's span.
@@ -48,8 +48,7 @@ impl Pass<'_> {
                         state.written[v] = state.nominal_exact[v];
                     } else {
                         let mut text = state.spare_texts.pop().unwrap_or_default();
-                        write_fixed(value, d, &mut text);
-                        state.emitted[v] = unit.to_mm(nc::to_f64(text.as_bytes()));
+                        state.emitted[v] = unit.to_mm(write_fixed_value(value, d, &mut text));
                         state.written[v] = Position::Decimal {
                             value,
                             decimals: d,
@@ -88,8 +87,7 @@ impl Pass<'_> {
                             state.unsettled &= !(1 << v);
                         }
                         let mut text = state.spare_texts.pop().unwrap_or_default();
-                        write_fixed(value, d, &mut text);
-                        state.emitted[v] = unit.to_mm(nc::to_f64(text.as_bytes()));
+                        state.emitted[v] = unit.to_mm(write_fixed_value(value, d, &mut text));
                         state.written[v] = Position::Decimal {
                             value,
                             decimals: d,

@@ -111,6 +111,26 @@ pub fn write_fixed(value: f64, decimals: u8, out: &mut String) {
     }
 }
 
+/// [`write_fixed`], returning the number written as the NC parser reads it back (the
+/// nearest f64 to the text), without reading the text: below 2^53 units of the last
+/// digit, the integer and the power of ten are exact and their quotient is that f64.
+pub fn write_fixed_value(value: f64, decimals: u8, out: &mut String) -> f64 {
+    const POW10: [f64; 13] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12,
+    ];
+    if let Some(n) = scaled(value, decimals)
+        && n.unsigned_abs() <= 1 << 53
+        && let Some(p) = POW10.get(usize::from(decimals))
+    {
+        write_scaled(i128::from(n), decimals, out);
+        let v = n.unsigned_abs() as f64 / p;
+        return if n < 0 { -v } else { v };
+    }
+    let start = out.len();
+    write_fixed(value, decimals, out);
+    crate::nc::to_f64(&out.as_bytes()[start..])
+}
+
 /// `value` with exactly `decimals` digits after the point.
 pub fn fixed(value: f64, decimals: u8) -> String {
     let mut s = String::new();
@@ -165,6 +185,15 @@ mod tests {
             let mut out = String::new();
             write_scaled(m, d, &mut out);
             proptest::prop_assert_eq!(out, expected);
+        }
+
+        #[test]
+        fn the_value_written_is_the_value_read(v in -1e6..1e6f64, d in 0u8..14) {
+            let mut text = String::new();
+            let written = write_fixed_value(v, d, &mut text);
+            proptest::prop_assert_eq!(&text, &fixed(v, d));
+            let read: f64 = text.parse().unwrap();
+            proptest::prop_assert_eq!(written.to_bits(), read.to_bits(), "{}", text);
         }
 
         #[test]
