@@ -217,6 +217,7 @@ fn the_nc_parser_and_pass_survive_mutated_programs() {
     let mut tokens = Vec::new();
     let mut out = Vec::new();
     let (mut compensated, mut refused) = (0u64, 0u64);
+    let mut slowest = (std::time::Duration::ZERO, 0);
     for exec in 0..total {
         let lines = 1 + rng.below(30);
         let data = sample(&mut rng, &seeds, lines);
@@ -236,6 +237,7 @@ fn the_nc_parser_and_pass_survive_mutated_programs() {
         // The pass: output or located errors, never a panic.
         out.clear();
         let comp = [&plain, &splitting, &mill_turn][(exec % 3) as usize];
+        let started = std::time::Instant::now();
         match comp.run(&data, "fuzz.nc", &mut out) {
             Ok(_) => compensated += 1,
             Err(nccomp::Error::Inputs(ds)) => {
@@ -244,8 +246,19 @@ fn the_nc_parser_and_pass_survive_mutated_programs() {
             }
             Err(other) => panic!("exec {exec}: unexpected error {other:?} for {data:?}"),
         }
+        // Not a timed test: a long run reports its slowest input, for a look by hand.
+        let took = started.elapsed();
+        if took > slowest.0 {
+            slowest = (took, exec);
+        }
+        if (exec + 1) % 100_000 == 0 {
+            eprintln!("nc: {} executions", exec + 1);
+        }
     }
-    println!("nc: {total} executions, {compensated} compensated, {refused} refused");
+    println!(
+        "nc: {total} executions, {compensated} compensated, {refused} refused; slowest: execution {} ({:.2?})",
+        slowest.1, slowest.0
+    );
     assert_eq!(compensated + refused, total);
     assert!(compensated > total / 20 && refused > total / 100);
 }
