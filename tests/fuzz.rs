@@ -218,6 +218,10 @@ fn the_nc_parser_and_pass_survive_mutated_programs() {
     let mut out = Vec::new();
     let (mut compensated, mut refused) = (0u64, 0u64);
     let mut slowest = (std::time::Duration::ZERO, 0);
+    // `NCCOMP_FUZZ_DUMP=<n>`: write execution n's program to `fuzz-<n>.nc`.
+    let dump = std::env::var("NCCOMP_FUZZ_DUMP")
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok());
     for exec in 0..total {
         let lines = 1 + rng.below(30);
         let data = sample(&mut rng, &seeds, lines);
@@ -237,6 +241,9 @@ fn the_nc_parser_and_pass_survive_mutated_programs() {
         // The pass: output or located errors, never a panic.
         out.clear();
         let comp = [&plain, &splitting, &mill_turn][(exec % 3) as usize];
+        if dump == Some(exec) {
+            std::fs::write(format!("fuzz-{exec}.nc"), &data).unwrap();
+        }
         let started = std::time::Instant::now();
         match comp.run(&data, "fuzz.nc", &mut out) {
             Ok(_) => compensated += 1,
