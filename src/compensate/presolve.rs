@@ -22,10 +22,11 @@ use crate::model::AxisKind;
 use crate::nc;
 
 /// Without path splitting, the helper leaves one block in this many to the pass: per
-/// block the pass then does about what the helper does (callgrind, benchmark program on
-/// the AC trunnion: 146 M instructions on the pass's thread against 193 M on the helper's
-/// when the helper solved every block).
-const PASS_SHARE: usize = 7;
+/// block the pass then does about what the helper does (callgrind, 100,000 blocks of the
+/// benchmark program on the AC trunnion: with one in seven, 1.35 G instructions on the
+/// pass's thread against 1.50 G on the helper's; with one in five, 1.45 G against
+/// 1.41 G).
+const PASS_SHARE: usize = 5;
 
 /// The inputs of one solve, bitwise.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
