@@ -256,6 +256,39 @@ impl Error {
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+/// For pointing a diagnostic at a field of a CSV row: byte offsets of the first `n`
+/// fields of the row starting at `start` (leading spaces skipped, quotes respected);
+/// fewer if the row has fewer. The probe and trace readers share it.
+pub fn csv_field_offsets(text: &[u8], start: usize, n: usize) -> Vec<usize> {
+    let mut out = Vec::with_capacity(n);
+    let mut i = start.min(text.len());
+    let skip_spaces = |mut i: usize| {
+        while i < text.len() && (text[i] == b' ' || text[i] == b'\t') {
+            i += 1;
+        }
+        i
+    };
+    while out.len() < n {
+        i = skip_spaces(i);
+        out.push(i);
+        let mut quoted = false;
+        while i < text.len() {
+            match text[i] {
+                b'"' => quoted = !quoted,
+                b',' if !quoted => break,
+                b'\n' | b'\r' if !quoted => return out,
+                _ => {}
+            }
+            i += 1;
+        }
+        if i >= text.len() {
+            break;
+        }
+        i += 1; // the comma
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -308,5 +341,12 @@ mod tests {
         // Colour only when asked for.
         assert!(!e.render().contains('\x1b'));
         assert!(e.render_styled(true).contains('\x1b'));
+    }
+
+    #[test]
+    fn field_offsets_respect_quotes() {
+        let t = b"1, \"a,b\" ,3\n";
+        assert_eq!(csv_field_offsets(t, 0, 3), vec![0, 3, 10]);
+        assert_eq!(csv_field_offsets(t, 0, 5), vec![0, 3, 10]);
     }
 }

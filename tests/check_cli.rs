@@ -2,8 +2,11 @@
 //! and 2 in both formats, the JSON against its published schema, and a stale committed
 //! output caught by one digit.
 
+mod common;
+use common::cli::{scratch, stderr};
+
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 const M: &str = "fixtures/ac_trunnion.machine.toml";
@@ -26,17 +29,6 @@ fn check(extra: &[&str]) -> Output {
 
 fn stdout(out: &Output) -> String {
     String::from_utf8(out.stdout.clone()).unwrap()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("nccomp-check-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 /// A program with cutter compensation (refused) and a move below Z's travel (-100 … 400).

@@ -1,30 +1,7 @@
 //! What a user types: `nccomp sensitivity ...` and `nccomp tolerance ...`.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn nccomp(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nccomp"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap()
-}
-
-fn stdout(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("nccomp-budget-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::cli::{nccomp, scratch, stderr, stdout};
 
 const M: &str = "fixtures/grinder.machine.toml";
 const B: &str = "fixtures/grinder.budget.toml";

@@ -1,34 +1,14 @@
 //! What a user types: `nccomp contour ...`, its exit codes, its messages and its files.
 
+mod common;
+use common::cli::{nccomp, scratch, stderr, stdout};
+
 use nccomp::compensate::{Compensator, Options};
 use nccomp::contour::s_shape::{Finishing, SShape, finishing_program};
 use nccomp::contour::simulate::{Servo, simulate};
 use nccomp::model::{ErrorModel, machine_file};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn nccomp(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nccomp"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap()
-}
-
-fn stdout(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("nccomp-contour-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use std::path::Path;
+use std::process::Output;
 
 /// The run failed with `message` at `place` (`file:line:column`), as nccomp prints it.
 fn refused(out: &Output, place: &str, message: &str) {

@@ -2,7 +2,10 @@
 //! last block or that cannot read its input leaves the destination as it was and no
 //! temporary file behind (one killed hard leaves one, which the next run removes).
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::cli::scratch;
+
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -20,13 +23,6 @@ fn command(args: &[&str]) -> Command {
 
 fn nccomp(args: &[&str]) -> Output {
     command(args).output().unwrap()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("nccomp-faults-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 /// The files in `dir` other than `keep`.

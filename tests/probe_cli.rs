@@ -1,30 +1,7 @@
 //! What a user types: `nccomp probe ...`, its exit codes, its messages and its files.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn nccomp(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nccomp"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap()
-}
-
-fn stdout(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("nccomp-probe-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::cli::{nccomp, scratch, stderr, stdout};
 
 fn write(dir: &std::path::Path, name: &str, text: &str) -> String {
     let path = dir.join(name);

@@ -6,7 +6,7 @@
 //! given too, as `X_cmd`, … for every axis. Other columns are ignored (and listed). Lines
 //! starting with `#` are comments. Positions are in the program's units: mm and degrees.
 
-use crate::diag::Error;
+use crate::diag::{Error, csv_field_offsets};
 use crate::kinematics::Kinematics;
 use crate::model::Machine;
 use crate::nc::number::write_fixed;
@@ -132,7 +132,7 @@ pub fn read(path: &str, text: &[u8], machine: &Machine, kin: &Kinematics) -> cra
             ),
         ));
     }
-    let offsets = field_offsets(text, header_at, header.len());
+    let offsets = csv_field_offsets(text, header_at, header.len());
     let mut columns = Vec::with_capacity(header.len());
     let mut seen: Vec<(Column, usize)> = Vec::new();
     let mut ignored = Vec::new();
@@ -251,7 +251,7 @@ pub fn read(path: &str, text: &[u8], machine: &Machine, kin: &Kinematics) -> cra
                     .iter()
                     .position(|c| matches!(c, Column::Time(_)))
                     .unwrap_or(0);
-                let at = field_offsets(text, chunk.starts[r], i + 1)
+                let at = csv_field_offsets(text, chunk.starts[r], i + 1)
                     .get(i)
                     .copied()
                     .unwrap_or(chunk.starts[r]);
@@ -517,34 +517,6 @@ fn leading_comments(text: &[u8]) -> usize {
             _ => return at,
         }
     }
-}
-
-/// Byte offsets of the first `n` fields of the row starting at `start` (leading spaces
-/// skipped, quotes respected); fewer if the row has fewer.
-fn field_offsets(text: &[u8], start: usize, n: usize) -> Vec<usize> {
-    let mut out = Vec::with_capacity(n);
-    let mut i = start.min(text.len());
-    while out.len() < n {
-        while i < text.len() && (text[i] == b' ' || text[i] == b'\t') {
-            i += 1;
-        }
-        out.push(i);
-        let mut quoted = false;
-        while i < text.len() {
-            match text[i] {
-                b'"' => quoted = !quoted,
-                b',' if !quoted => break,
-                b'\n' | b'\r' if !quoted => return out,
-                _ => {}
-            }
-            i += 1;
-        }
-        if i >= text.len() {
-            break;
-        }
-        i += 1;
-    }
-    out
 }
 
 /// A csv reader error in a piece of `text` starting at `from`, located.

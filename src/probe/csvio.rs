@@ -6,7 +6,7 @@
 //! number, a row with the wrong number of fields or a missing column is reported at its
 //! place in the file.
 
-use crate::diag::Error;
+use crate::diag::{Error, csv_field_offsets};
 use csv::{ByteRecord, ReaderBuilder, StringRecord, Trim};
 use serde::de::DeserializeOwned;
 
@@ -116,7 +116,7 @@ pub fn read_rows<T: DeserializeOwned>(
         // The reader's position is where it began looking, before skipped empty lines.
         let offset = record.position().map_or(0, |p| p.byte() as usize);
         let offset = skip_blank(&cleaned, offset);
-        let field_offsets = field_offsets(text, offset, columns.len());
+        let field_offsets = csv_field_offsets(text, offset, columns.len());
         let at_field = |i: usize| field_offsets.get(i).copied().unwrap_or(offset);
         let value: T = match record.deserialize(Some(&lower)) {
             Ok(v) => v,
@@ -197,7 +197,7 @@ fn csv_error(path: &str, text: &[u8], cleaned: &[u8], e: &csv::Error, what: &str
         }
         csv::ErrorKind::Utf8 { pos, err } => {
             let offset = start(pos.as_ref());
-            let offset = field_offsets(text, offset, err.field() + 1)
+            let offset = csv_field_offsets(text, offset, err.field() + 1)
                 .get(err.field())
                 .copied()
                 .unwrap_or(offset);
@@ -245,38 +245,6 @@ fn first_content_line(text: &[u8]) -> usize {
         }
     }
     offset.min(text.len())
-}
-
-/// Byte offsets of the first `n` fields of the row starting at `start` (leading spaces
-/// skipped, quotes respected); fewer if the row has fewer.
-pub fn field_offsets(text: &[u8], start: usize, n: usize) -> Vec<usize> {
-    let mut out = Vec::with_capacity(n);
-    let mut i = start.min(text.len());
-    let skip_spaces = |mut i: usize| {
-        while i < text.len() && (text[i] == b' ' || text[i] == b'\t') {
-            i += 1;
-        }
-        i
-    };
-    while out.len() < n {
-        i = skip_spaces(i);
-        out.push(i);
-        let mut quoted = false;
-        while i < text.len() {
-            match text[i] {
-                b'"' => quoted = !quoted,
-                b',' if !quoted => break,
-                b'\n' | b'\r' if !quoted => return out,
-                _ => {}
-            }
-            i += 1;
-        }
-        if i >= text.len() {
-            break;
-        }
-        i += 1; // the comma
-    }
-    out
 }
 
 #[cfg(test)]
@@ -329,12 +297,5 @@ mod tests {
         assert!(e.starts_with("t.csv:5:1: this row has 3 fields"), "{e}");
         let e = read("").unwrap_err().to_string();
         assert!(e.starts_with("t.csv:1:1: test data is empty"), "{e}");
-    }
-
-    #[test]
-    fn field_offsets_respect_quotes() {
-        let t = b"1, \"a,b\" ,3\n";
-        assert_eq!(field_offsets(t, 0, 3), vec![0, 3, 10]);
-        assert_eq!(field_offsets(t, 0, 5), vec![0, 3, 10]);
     }
 }

@@ -1,6 +1,8 @@
 //! Machines and error models built in code, for tests that must not depend on files.
 #![allow(dead_code)]
 
+pub mod cli;
+
 use nalgebra::Vector3;
 use nccomp::model::{
     Axis, AxisErrors, AxisKind, Chain, ErrorModel, Machine, MotionTable, Resolution, Tool,
