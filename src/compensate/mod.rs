@@ -745,9 +745,12 @@ impl<'m> Pass<'m> {
             }
         }
         // What the block does before and after, as the model predicts it.
-        let (after, beyond) = self
-            .kin
-            .pose(Model::Actual, &state.emitted[..n], state.length);
+        let (after, beyond) = self.kin.pose_near(
+            Model::Actual,
+            &state.emitted[..n],
+            state.length,
+            &sol.angles,
+        );
         let (bp, bd) = (sol.start_position_error, sol.start_direction_error);
         let (ap, ad) = after.deviation(&sol.target);
         summary.record(line.number, bp, bd, ap, ad, sol.singular != 0, beyond);
@@ -863,9 +866,12 @@ impl<'m> Pass<'m> {
         summary: &mut Summary,
     ) {
         let n = self.kin.len();
-        let (after, beyond) = self
-            .kin
-            .pose(Model::Actual, &state.emitted[..n], state.length);
+        let (after, beyond) = self.kin.pose_near(
+            Model::Actual,
+            &state.emitted[..n],
+            state.length,
+            &sol.angles,
+        );
         let (ap, ad) = after.deviation(&sol.target);
         summary.motion_blocks += 1;
         summary.record(

@@ -6,15 +6,18 @@
 //! Nothing else in nccomp evaluates a machine: compensation, checks and analysis tools
 //! all come through [`Kinematics`].
 
+mod chain;
 pub mod path;
 mod solve;
 pub mod tcp;
 mod turning;
 
+pub use chain::Angles;
 pub use solve::{Solution, SolveOptions};
 
-use crate::model::{AxisKind, ErrorModel, Machine, MotionTable};
-use nalgebra::{Isometry3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use crate::model::{AxisKind, ErrorModel, Machine};
+use chain::{Joint, Twist};
+use nalgebra::{Rotation3, Vector3};
 
 /// The most axes one active configuration (workpiece chain + one tool chain) may have.
 pub const MAX_AXES: usize = 9;
@@ -35,7 +38,15 @@ impl Pose {
 
 /// The angle between two unit vectors, accurate for tiny angles too.
 pub fn angle_between(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
-    a.cross(b).norm().atan2(a.dot(b))
+    let (y, x) = (a.cross(b).norm(), a.dot(b));
+    if x > 0.0 && y <= 1e-2 * x {
+        // The micro-radians between a real and a nominal pose, twice per block: atan's
+        // series to the 9th power is exact there (the next term is below 10⁻²⁰·t).
+        let t = y / x;
+        let tt = t * t;
+        return t * (1.0 - tt * (1.0 / 3.0 - tt * (1.0 / 5.0 - tt * (1.0 / 7.0 - tt / 9.0))));
+    }
+    y.atan2(x)
 }
 
 /// Which model to evaluate: the ideal machine or the machine with its errors.
@@ -58,80 +69,6 @@ pub struct Jacobian {
     pub axis_dir: [Vector3<f64>; MAX_AXES],
     /// Whether an error table was read beyond its ends.
     pub beyond: bool,
-}
-
-#[derive(Debug, Clone)]
-struct Joint {
-    var: usize,
-    kind: AxisKind,
-    /// Linear: direction of motion d̃. Rotary: axis direction ã.
-    dir: Vector3<f64>,
-    /// Linear: error reference point r. Rotary: axis point c̃.
-    point: Vector3<f64>,
-    /// Rotary: zero-position error e0 (rad).
-    zero: f64,
-    motion: Option<MotionTable>,
-    table_offset: f64,
-}
-
-impl Joint {
-    /// The joint transform at position q (mm or degrees); sets `beyond` when an error
-    /// table was read past its ends.
-    fn transform(&self, q: f64, beyond: &mut bool) -> Isometry3<f64> {
-        // E(q) = Tr(δ)·Rv(ε), about the joint's reference point.
-        let e = self.motion.as_ref().map(|m| {
-            let s = m.sample(q + self.table_offset);
-            *beyond |= s.beyond;
-            let v = s.values;
-            (
-                Vector3::new(v[0], v[1], v[2]),
-                small_rotation(Vector3::new(v[3], v[4], v[5])),
-            )
-        });
-        match self.kind {
-            AxisKind::Linear => {
-                // Tr(q·d̃) · Tr(r) · E · Tr(−r)
-                let mut t = self.dir * q;
-                let rot = match e {
-                    Some((delta, rot)) => {
-                        t += self.point + delta - rot * self.point;
-                        rot
-                    }
-                    None => UnitQuaternion::identity(),
-                };
-                Isometry3::from_parts(Translation3::from(t), rot)
-            }
-            AxisKind::Rotary => {
-                // Tr(c̃) · E · Rot(ã, q + e0) · Tr(−c̃)
-                let turn =
-                    UnitQuaternion::from_scaled_axis(self.dir * (q.to_radians() + self.zero));
-                let (delta, rot) = match e {
-                    Some((delta, erot)) => (delta, erot * turn),
-                    None => (Vector3::zeros(), turn),
-                };
-                let t = self.point + delta - rot * self.point;
-                Isometry3::from_parts(Translation3::from(t), rot)
-            }
-        }
-    }
-}
-
-/// `UnitQuaternion::from_scaled_axis(v)` for the micro-radians of error motions without
-/// the sine and cosine: below 1 mrad their series to the fourth term are exact in f64.
-/// As nalgebra does, a half angle of at most machine epsilon is no rotation.
-fn small_rotation(v: Vector3<f64>) -> UnitQuaternion<f64> {
-    let h = v / 2.0;
-    let nn = h.norm_squared();
-    if nn > 0.25e-6 {
-        return UnitQuaternion::from_scaled_axis(v);
-    }
-    if nn <= f64::EPSILON * f64::EPSILON {
-        return UnitQuaternion::identity();
-    }
-    // cos n and sin n / n for the half angle n, by their series in n².
-    let w = 1.0 - nn * (0.5 - nn * (1.0 / 24.0 - nn / 720.0));
-    let k = 1.0 - nn * (1.0 / 6.0 - nn * (1.0 / 120.0 - nn / 5040.0));
-    UnitQuaternion::new_unchecked(nalgebra::Quaternion::from_parts(w, h * k))
 }
 
 #[derive(Debug, Clone)]
@@ -197,24 +134,24 @@ impl Kinematics {
                 let axis = &machine.axes[i];
                 let err = &model.axes[i];
                 match axis.kind {
-                    AxisKind::Linear => Joint {
+                    AxisKind::Linear => Joint::new(
                         var,
-                        kind: AxisKind::Linear,
-                        dir: Rotation3::new(err.squareness) * axis.direction,
-                        point: axis.point,
-                        zero: 0.0,
-                        motion: err.motion.clone(),
-                        table_offset: axis.table_offset,
-                    },
-                    AxisKind::Rotary => Joint {
+                        AxisKind::Linear,
+                        Rotation3::new(err.squareness) * axis.direction,
+                        axis.point,
+                        0.0,
+                        err.motion.clone(),
+                        axis.table_offset,
+                    ),
+                    AxisKind::Rotary => Joint::new(
                         var,
-                        kind: AxisKind::Rotary,
-                        dir: Rotation3::new(err.location_tilt) * axis.direction,
-                        point: axis.point + err.location_shift,
-                        zero: err.zero,
-                        motion: err.motion.clone(),
-                        table_offset: axis.table_offset,
-                    },
+                        AxisKind::Rotary,
+                        Rotation3::new(err.location_tilt) * axis.direction,
+                        axis.point + err.location_shift,
+                        err.zero,
+                        err.motion.clone(),
+                        axis.table_offset,
+                    ),
                 }
             };
             Chains {
@@ -262,83 +199,104 @@ impl Kinematics {
         Vector3::new(0.0, 0.0, -(length - self.reference_tool))
     }
 
+    /// Bit k set: variable k is a rotary axis.
+    fn rotary_mask(&self) -> u32 {
+        self.kinds
+            .iter()
+            .enumerate()
+            .filter(|(_, k)| **k == AxisKind::Rotary)
+            .fold(0, |m, (v, _)| m | 1 << v)
+    }
+
+    /// The sines and cosines of the rotary axes at `q`, for [`Kinematics::pose_near`].
+    pub fn angles(&self, q: &[f64]) -> Angles {
+        Angles::new(&q[..self.len()], self.rotary_mask())
+    }
+
     /// The pose at axis values `q` (mm, degrees) with the tool of length `length` (a
     /// turning pose for kinematics made by [`Kinematics::turning`]).
     /// The flag tells whether an error table was read beyond its ends.
     pub fn pose(&self, model: Model, q: &[f64], length: f64) -> (Pose, bool) {
+        self.pose_at(model, q, length, &self.angles(q))
+    }
+
+    /// [`Kinematics::pose`] at `q` near the axis values `near` was made for: the rotary
+    /// axes' sines and cosines by angle addition instead of anew (the same values to the
+    /// last bit or two).
+    pub fn pose_near(&self, model: Model, q: &[f64], length: f64, near: &Angles) -> (Pose, bool) {
+        self.pose_at(model, q, length, &near.near(&q[..self.len()]))
+    }
+
+    pub(crate) fn pose_at(
+        &self,
+        model: Model,
+        q: &[f64],
+        length: f64,
+        angles: &Angles,
+    ) -> (Pose, bool) {
         if self.turning.is_some() {
-            let (pose, jac) = self.pose_and_jacobian(model, q, length);
+            let (pose, jac) = self.jacobian_at(model, q, length, angles);
             return (pose, jac.beyond);
         }
         let chains = self.chains(model);
         let mut beyond = false;
-        let w = chains
-            .workpiece
-            .iter()
-            .fold(Isometry3::identity(), |acc, j| {
-                acc * j.transform(q[j.var], &mut beyond)
-            });
-        let t = chains.tool.iter().fold(Isometry3::identity(), |acc, j| {
-            acc * j.transform(q[j.var], &mut beyond)
-        });
-        let x = w.inv_mul(&t);
-        let p = x.transform_point(&self.tip(length).into()).coords;
-        let o = x.rotation * Vector3::z();
+        let mut unused = [Twist::default(); MAX_AXES];
+        let w = chain::walk::<false>(&chains.workpiece, q, angles, &mut beyond, &mut unused);
+        let t = chain::walk::<false>(&chains.tool, q, angles, &mut beyond, &mut unused);
+        let p = w.apply_inverse(&t.apply(&self.tip(length)));
+        let o = w.r.tr_mul(&t.r.column(2));
         (Pose { p, o }, beyond)
     }
 
-    /// The pose and its Jacobian at `q`. The Jacobian leaves out the (tiny) change of the
-    /// error motions with position; the solve only needs it to point the way.
+    /// The pose and its Jacobian at `q`. The Jacobian includes the error motions' change
+    /// with position (their tables' slopes), to first order in the error angles.
     pub fn pose_and_jacobian(&self, model: Model, q: &[f64], length: f64) -> (Pose, Jacobian) {
+        self.jacobian_at(model, q, length, &self.angles(q))
+    }
+
+    pub(crate) fn jacobian_at(
+        &self,
+        model: Model,
+        q: &[f64],
+        length: f64,
+        angles: &Angles,
+    ) -> (Pose, Jacobian) {
+        self.evaluate::<true>(model, q, length, angles)
+    }
+
+    /// The pose, and of its Jacobian only the rotary axes' directions (`axis_dir`), unless
+    /// the poses are turning poses, which need the whole.
+    pub(crate) fn axes_at(
+        &self,
+        model: Model,
+        q: &[f64],
+        length: f64,
+        angles: &Angles,
+    ) -> (Pose, Jacobian) {
+        if self.turning.is_some() {
+            return self.evaluate::<true>(model, q, length, angles);
+        }
+        self.evaluate::<false>(model, q, length, angles)
+    }
+
+    fn evaluate<const COLUMNS: bool>(
+        &self,
+        model: Model,
+        q: &[f64],
+        length: f64,
+        angles: &Angles,
+    ) -> (Pose, Jacobian) {
         let chains = self.chains(model);
         let mut beyond = false;
-        // Per joint: its kind, the world direction (of motion or of the rotation axis)
-        // and, for rotary joints, a world point on the axis line.
-        let mut frames = [(AxisKind::Linear, Vector3::zeros(), Vector3::zeros(), 0.0); MAX_AXES];
-        let mut walk = |joints: &[Joint], sign: f64| {
-            let mut acc = Isometry3::identity();
-            for j in joints {
-                let jt = j.transform(q[j.var], &mut beyond);
-                match j.kind {
-                    AxisKind::Linear => {
-                        frames[j.var] = (j.kind, acc.rotation * j.dir, Vector3::zeros(), sign);
-                    }
-                    AxisKind::Rotary => {
-                        // The axis line is carried by everything before the turn, including
-                        // the joint's own error motion: evaluate the joint at q with the
-                        // turn removed.
-                        let turn = UnitQuaternion::from_scaled_axis(
-                            j.dir * (q[j.var].to_radians() + j.zero),
-                        );
-                        let turn_inv = turn.inverse();
-                        let undo_turn = Isometry3::from_parts(
-                            Translation3::from(j.point - turn_inv * j.point),
-                            turn_inv,
-                        );
-                        let before = jt * undo_turn;
-                        let m = acc * before;
-                        frames[j.var] = (
-                            j.kind,
-                            m.rotation * j.dir,
-                            m.transform_point(&j.point.into()).coords,
-                            sign,
-                        );
-                    }
-                }
-                acc *= jt;
-            }
-            acc
-        };
-        let w = walk(&chains.workpiece, -1.0);
-        let t = walk(&chains.tool, 1.0);
-        let x = w.inv_mul(&t);
-        let tip = self.tip(length);
-        let p = x.transform_point(&tip.into()).coords;
-        let o = x.rotation * Vector3::z();
-        // World tip and direction, to take velocities of.
-        let pw = t.transform_point(&tip.into()).coords;
-        let ow = t.rotation * Vector3::z();
-        let winv = w.rotation.inverse();
+        let mut twists = [Twist::default(); MAX_AXES];
+        let w = chain::walk::<true>(&chains.workpiece, q, angles, &mut beyond, &mut twists);
+        let mut tool_twists = [Twist::default(); MAX_AXES];
+        let t = chain::walk::<true>(&chains.tool, q, angles, &mut beyond, &mut tool_twists);
+        // The world tip and direction, to take velocities of.
+        let pw = t.apply(&self.tip(length));
+        let ow = t.r.column(2);
+        let p = w.apply_inverse(&pw);
+        let o = w.r.tr_mul(&ow);
         let mut jac = Jacobian {
             n: self.axes.len(),
             dp: [Vector3::zeros(); MAX_AXES],
@@ -346,22 +304,30 @@ impl Kinematics {
             axis_dir: [Vector3::zeros(); MAX_AXES],
             beyond,
         };
-        for (k, &(kind, dir, point, sign)) in frames.iter().enumerate().take(self.axes.len()) {
-            match kind {
-                AxisKind::Linear => {
-                    jac.dp[k] = winv * (dir * sign);
-                }
-                AxisKind::Rotary => {
-                    let w_rad = dir * (sign * std::f64::consts::PI / 180.0);
-                    jac.dp[k] = winv * w_rad.cross(&(pw - point));
-                    jac.do_[k] = winv * w_rad.cross(&ow);
-                    jac.axis_dir[k] = winv * dir;
-                }
+        // The tool's motion moves the tip; the workpiece's moves the part the other way.
+        let mut column = |k: usize, tw: &Twist, sign: f64| {
+            if self.kinds[k] == AxisKind::Rotary {
+                jac.axis_dir[k] = w.r.tr_mul(&tw.axis);
             }
+            if COLUMNS {
+                let v = tw.omega.cross(&(pw - tw.c)) + tw.v;
+                jac.dp[k] = w.r.tr_mul(&(v * sign));
+                jac.do_[k] = w.r.tr_mul(&(tw.omega.cross(&ow) * sign));
+            }
+        };
+        for j in &chains.workpiece {
+            column(j.var, &twists[j.var], -1.0);
+        }
+        for j in &chains.tool {
+            column(j.var, &tool_twists[j.var], 1.0);
         }
         if let Some(turning) = &self.turning {
-            let (_, dir, point, _) = frames[turning.spindle];
-            let line = (w.inverse_transform_point(&point.into()).coords, winv * dir);
+            let tw = if chains.workpiece.iter().any(|j| j.var == turning.spindle) {
+                &twists[turning.spindle]
+            } else {
+                &tool_twists[turning.spindle]
+            };
+            let line = (w.apply_inverse(&tw.c), w.r.tr_mul(&tw.axis));
             return turning.pose(&p, line, jac);
         }
         (Pose { p, o }, jac)
@@ -371,23 +337,182 @@ impl Kinematics {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::{error_file, machine_file};
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+    use std::path::Path;
+
+    fn fixture(name: &str) -> (Machine, ErrorModel) {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+        let machine = machine_file::load(&dir.join(format!("{name}.machine.toml"))).unwrap();
+        let errors = error_file::load(&dir.join(format!("{name}.errors.toml")), &machine).unwrap();
+        (machine, errors)
+    }
+
+    /// design/model.md's joint transforms word for word, with nalgebra's isometries.
+    fn reference_pose(
+        machine: &Machine,
+        errors: &ErrorModel,
+        chain: usize,
+        vars: &[usize],
+        q: &[f64],
+        length: f64,
+    ) -> Pose {
+        let joint = |i: usize| {
+            let axis = &machine.axes[i];
+            let err = &errors.axes[i];
+            let x = q[vars.iter().position(|&a| a == i).unwrap()];
+            let e = err.motion.as_ref().map_or(Isometry3::identity(), |m| {
+                let v = m.sample(x + axis.table_offset).values;
+                Isometry3::from_parts(
+                    Translation3::new(v[0], v[1], v[2]),
+                    UnitQuaternion::from_scaled_axis(Vector3::new(v[3], v[4], v[5])),
+                )
+            });
+            match axis.kind {
+                AxisKind::Linear => {
+                    let d = Rotation3::new(err.squareness) * axis.direction;
+                    let r = axis.point;
+                    Isometry3::translation(d.x * x, d.y * x, d.z * x)
+                        * Isometry3::translation(r.x, r.y, r.z)
+                        * e
+                        * Isometry3::translation(-r.x, -r.y, -r.z)
+                }
+                AxisKind::Rotary => {
+                    let a = Rotation3::new(err.location_tilt) * axis.direction;
+                    let c = axis.point + err.location_shift;
+                    let turn = UnitQuaternion::from_scaled_axis(a * (x.to_radians() + err.zero));
+                    Isometry3::translation(c.x, c.y, c.z)
+                        * e
+                        * Isometry3::from_parts(Translation3::identity(), turn)
+                        * Isometry3::translation(-c.x, -c.y, -c.z)
+                }
+            }
+        };
+        let product = |axes: &[usize]| {
+            axes.iter()
+                .fold(Isometry3::identity(), |acc, &i| acc * joint(i))
+        };
+        let w = product(&machine.workpiece_chain);
+        let t = product(&machine.tool_chains[chain].axes);
+        let x = w.inv_mul(&t);
+        let tip = Vector3::new(0.0, 0.0, -(length - machine.tool.length));
+        Pose {
+            p: x.transform_point(&tip.into()).coords,
+            o: x.rotation * Vector3::z(),
+        }
+    }
+
+    const MACHINES: [&str; 5] = [
+        "ac_trunnion",
+        "bc_trunnion",
+        "head_head",
+        "grinder",
+        "mill_turn",
+    ];
+
+    /// Axis values within (or a little beyond) each axis's travel, from unit numbers.
+    fn axis_values(machine: &Machine, kin: &Kinematics, u: &[f64]) -> Vec<f64> {
+        kin.axes()
+            .iter()
+            .zip(u)
+            .map(|(&i, &u)| {
+                let [lo, hi] = machine.axes[i].travel.unwrap_or([-200.0, 200.0]);
+                lo - 5.0 + u * (hi - lo + 10.0)
+            })
+            .collect()
+    }
 
     proptest::proptest! {
         #[test]
-        fn small_rotations_are_the_scaled_axis_rotations(
+        fn poses_follow_the_contract_formulas(
+            m in 0..MACHINES.len(),
+            u in proptest::collection::vec(0.0..1.0f64, MAX_AXES),
+            length in 0.0..150.0f64,
+            near in proptest::collection::vec(-0.4..0.4f64, MAX_AXES),
+        ) {
+            let (machine, errors) = fixture(MACHINES[m]);
+            for chain in 0..machine.tool_chains.len() {
+                let kin = Kinematics::new(&machine, &errors, chain).unwrap();
+                let q = axis_values(&machine, &kin, &u);
+                let want = reference_pose(&machine, &errors, chain, kin.axes(), &q, length);
+                let nominal = reference_pose(
+                    &machine, &ErrorModel::zero(&machine), chain, kin.axes(), &q, length,
+                );
+                let base: Vec<f64> = q.iter().zip(&near).map(|(x, d)| x + d).collect();
+                let angles = kin.angles(&base);
+                for (model, want) in [(Model::Actual, want), (Model::Nominal, nominal)] {
+                    let poses = [
+                        kin.pose(model, &q, length).0,
+                        kin.pose_and_jacobian(model, &q, length).0,
+                        kin.pose_near(model, &q, length, &angles).0,
+                    ];
+                    for got in poses {
+                        let (dp, da) = got.deviation(&want);
+                        proptest::prop_assert!(dp < 1e-11 && da < 1e-14, "{} {model:?} q={q:?}: {dp} mm, {da} rad", MACHINES[m]);
+                    }
+                }
+            }
+        }
+
+        #[test]
+        fn jacobians_are_the_derivatives_including_the_error_tables(
+            m in 0..4usize,
+            u in proptest::collection::vec(0.0..1.0f64, MAX_AXES),
+        ) {
+            let (machine, errors) = fixture(MACHINES[m]);
+            let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+            let q = axis_values(&machine, &kin, &u);
+            let (_, jac) = kin.pose_and_jacobian(Model::Actual, &q, 50.0);
+            for k in 0..kin.len() {
+                // Central differences over 1 µm or 1 µ°: well inside one table segment
+                // almost always, and truncation far below the tolerance.
+                let h = 1e-3;
+                let mut up = q.clone();
+                up[k] += h;
+                let mut down = q.clone();
+                down[k] -= h;
+                let (a, _) = kin.pose(Model::Actual, &up, 50.0);
+                let (b, _) = kin.pose(Model::Actual, &down, 50.0);
+                let dp = (a.p - b.p) / (2.0 * h);
+                let do_ = (a.o - b.o) / (2.0 * h);
+                // Relative to the column's size: first order in the error angles.
+                let scale = jac.dp[k].norm().max(1.0);
+                proptest::prop_assert!((dp - jac.dp[k]).norm() < 1e-6 * scale, "{} var {k}: {dp:?} vs {:?}", MACHINES[m], jac.dp[k]);
+                proptest::prop_assert!((do_ - jac.do_[k]).norm() < 1e-8, "{} var {k}: {do_:?} vs {:?}", MACHINES[m], jac.do_[k]);
+            }
+        }
+
+        #[test]
+        fn small_rotations_are_rodrigues_rotations(
             x in -1e-3..1e-3f64, y in -1e-3..1e-3f64, z in -1e-3..1e-3f64, scale in -12i32..1,
         ) {
             let v = Vector3::new(x, y, z) * 10f64.powi(scale);
-            let ours = small_rotation(v);
-            let std = UnitQuaternion::from_scaled_axis(v);
-            for (a, b) in ours.coords.iter().zip(std.coords.iter()) {
-                proptest::prop_assert!((a - b).abs() <= 2.0 * f64::EPSILON * b.abs().max(1e-300), "{v:?}: {ours:?} {std:?}");
+            let ours = chain::small_rotation(&v).to_matrix();
+            let std = Rotation3::new(v).into_inner();
+            for (a, b) in ours.iter().zip(std.iter()) {
+                proptest::prop_assert!((a - b).abs() <= 4.0 * f64::EPSILON, "{v:?}: {ours:?} {std:?}");
             }
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn angles_between_are_atan2s(
+            x in -1.0..1.0f64, y in -1.0..1.0f64, z in 0.01..1.0f64, scale in -12i32..1,
+        ) {
+            let a = Vector3::new(0.3, -0.2, 1.0).normalize();
+            let b = (a + Vector3::new(x, y, z - 0.5) * 10f64.powi(scale)).normalize();
+            let want = a.cross(&b).norm().atan2(a.dot(&b));
+            let got = angle_between(&a, &b);
+            proptest::prop_assert!((got - want).abs() <= 4.0 * f64::EPSILON * want, "{got} {want}");
         }
     }
 
     #[test]
     fn no_rotation_is_the_identity() {
-        assert_eq!(small_rotation(Vector3::zeros()), UnitQuaternion::identity());
+        assert_eq!(
+            chain::small_rotation(&Vector3::zeros()),
+            chain::M3::IDENTITY
+        );
     }
 }

@@ -7,9 +7,9 @@
 //! it is held at its nominal value instead of being swung to chase the few micro-radians
 //! of direction error it cannot fix anyway.
 
-use super::{Jacobian, Kinematics, MAX_AXES, Model, Pose, angle_between};
+use super::{Angles, Jacobian, Kinematics, MAX_AXES, Model, Pose};
 use crate::model::AxisKind;
-use nalgebra::{DMatrix, Matrix5, SMatrix, Vector3, Vector5};
+use nalgebra::{DMatrix, SMatrix, Vector3, Vector5};
 
 /// How the solve behaves.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -59,6 +59,9 @@ pub struct Solution {
     pub singular: u32,
     /// Whether an error table was read beyond its ends at the solution.
     pub beyond: bool,
+    /// The rotary axes' sines and cosines at the start values, to evaluate poses near the
+    /// solution with ([`Kinematics::pose_near`]).
+    pub angles: Angles,
 }
 
 impl Solution {
@@ -93,14 +96,12 @@ impl Kinematics {
         // Whether a pose is singular is a property of the programmed (nominal) pose: the
         // real machine's axis lines are off by up to a few hundred micro-radians, which
         // would move the edge of the singular cone by that much.
-        let (target, nominal) = self.pose_and_jacobian(Model::Nominal, q, length);
+        let angles = self.angles(q);
+        let (target, nominal) = self.axes_at(Model::Nominal, q, length, &angles);
         let singular = self.singular_axes(&target, &nominal, options.singular_angle) & !hold;
-        // The nominal Jacobian points the way as well as the real one: they differ by the
-        // errors' share (1e-4 and less), about what the real one changes over the step,
-        // so Newton's method takes as many steps, and the real pose costs half as much
-        // without its Jacobian.
-        let (start, beyond) = self.pose(Model::Actual, q, length);
-        let first = (start, Jacobian { beyond, ..nominal });
+        // Newton's method with the real machine's Jacobian (error tables' slopes included)
+        // converges quadratically: from tens of microns, two steps reach 1e-10 mm.
+        let first = self.jacobian_at(Model::Actual, q, length, &angles);
         let mut sol = self.solve_from(
             Model::Actual,
             &target,
@@ -109,6 +110,7 @@ impl Kinematics {
             hold | singular,
             options,
             first,
+            &angles,
         );
         sol.singular = singular;
         sol
@@ -116,14 +118,12 @@ impl Kinematics {
 
     /// Rotary variables whose axis line lies within `limit` (rad) of the tool direction.
     pub fn singular_axes(&self, pose: &Pose, jac: &Jacobian, limit: f64) -> u32 {
+        // Within `limit` of the line, either way: |cos| above cos(limit) (unit vectors).
+        let cos_limit = limit.cos();
         let mut held = 0;
         for k in 0..self.len() {
-            if self.kind(k) == AxisKind::Rotary {
-                let a = jac.axis_dir[k];
-                let off = angle_between(&a, &pose.o).min(angle_between(&-a, &pose.o));
-                if off < limit {
-                    held |= 1 << k;
-                }
+            if self.kind(k) == AxisKind::Rotary && jac.axis_dir[k].dot(&pose.o).abs() > cos_limit {
+                held |= 1 << k;
             }
         }
         held
@@ -143,8 +143,9 @@ impl Kinematics {
         held: u32,
         options: &SolveOptions,
     ) -> Solution {
-        let first = self.pose_and_jacobian(model, &start[..self.len()], length);
-        self.solve_from(model, target, start, length, held, options, first)
+        let angles = self.angles(start);
+        let first = self.jacobian_at(model, &start[..self.len()], length, &angles);
+        self.solve_from(model, target, start, length, held, options, first, &angles)
     }
 
     /// [`Kinematics::solve`] with the pose and Jacobian at `start` already evaluated.
@@ -158,6 +159,7 @@ impl Kinematics {
         held: u32,
         options: &SolveOptions,
         (mut pose, mut jac): (Pose, Jacobian),
+        angles: &Angles,
     ) -> Solution {
         let n = self.len();
         let mut q = [0.0; MAX_AXES];
@@ -177,25 +179,27 @@ impl Kinematics {
         loop {
             let rp = pose.p - target.p;
             let rd = [b1.dot(&pose.o), b2.dot(&pose.o)];
+            // atan(y/x) ≤ y/x: within the angle tolerance without an atan2.
             let done = rp.norm() <= options.position_tolerance
-                && angle_between(&pose.o, &target.o) <= options.angle_tolerance;
+                && pose.o.cross(&target.o).norm()
+                    <= options.angle_tolerance * pose.o.dot(&target.o);
             if done || iterations >= options.max_iterations {
                 break;
             }
             iterations += 1;
-            let r = Vector5::new(rp.x, rp.y, rp.z, rd[0], rd[1]);
-            let step = map * r;
+            let step = map.step(&[rp.x, rp.y, rp.z, rd[0], rd[1]]);
             let mut biggest: f64 = 0.0;
             for (i, &k) in free.iter().enumerate() {
                 q[k] -= step[i];
                 biggest = biggest.max(step[i].abs());
             }
+            let near = angles.near(&q[..n]);
             if iterations % 4 == 0 {
-                (pose, jac) = self.pose_and_jacobian(model, &q[..n], length);
+                (pose, jac) = self.jacobian_at(model, &q[..n], length, &near);
                 beyond = jac.beyond;
                 map = step_map(&jac, free, &b1, &b2);
             } else {
-                (pose, beyond) = self.pose(model, &q[..n], length);
+                (pose, beyond) = self.pose_at(model, &q[..n], length, &near);
             }
             if biggest < 1e-13 {
                 break;
@@ -214,34 +218,119 @@ impl Kinematics {
             held,
             singular: 0,
             beyond,
+            angles: *angles,
         }
     }
 }
 
-/// The linear map from the residual r = [position (3); direction (2)] to the Newton step
-/// Δ on the free variables (row i is free variable i) with J·Δ ≈ r: position rows exactly
-/// (least squares if out of reach), direction rows as well as the remaining freedom
-/// allows. Computed once per Jacobian and applied at every iteration.
-fn step_map(
-    jac: &Jacobian,
-    free: &[usize],
-    b1: &Vector3<f64>,
-    b2: &Vector3<f64>,
-) -> SMatrix<f64, MAX_AXES, 5> {
-    let m = free.len();
-    let mut out = SMatrix::<f64, MAX_AXES, 5>::zeros();
+/// The Newton step for a residual: with five free variables the LU factors of the square
+/// Jacobian, otherwise an explicit map (below).
+enum StepMap {
+    Square(Lu5),
+    General(SMatrix<f64, MAX_AXES, 5>),
+}
+
+impl StepMap {
+    /// Δ on the free variables (entry i for free variable i) with J·Δ ≈ r.
+    fn step(&self, r: &[f64; 5]) -> [f64; MAX_AXES] {
+        let mut out = [0.0; MAX_AXES];
+        match self {
+            StepMap::Square(lu) => out[..5].copy_from_slice(&lu.solve(r)),
+            StepMap::General(map) => {
+                out.copy_from_slice((map * Vector5::from_column_slice(r)).as_slice());
+            }
+        }
+        out
+    }
+}
+
+/// The LU factors of a 5×5 matrix by Gaussian elimination with partial pivoting, for the
+/// two or three solves of a block (a generic decomposition costs several times more).
+#[derive(Debug, Clone, Copy)]
+struct Lu5 {
+    /// L below the diagonal (unit diagonal implied), U on and above it, rows permuted.
+    a: [[f64; 5]; 5],
+    /// Row i of the factors is row `perm[i]` of the matrix.
+    perm: [usize; 5],
+}
+
+impl Lu5 {
+    /// `None` when a pivot is lost in the rounding noise of the largest or is not finite.
+    fn new(mut a: [[f64; 5]; 5]) -> Option<Self> {
+        let mut perm = [0, 1, 2, 3, 4];
+        let (mut smallest, mut largest) = (f64::INFINITY, 0.0f64);
+        for k in 0..5 {
+            let mut p = k;
+            for i in k + 1..5 {
+                if a[i][k].abs() > a[p][k].abs() {
+                    p = i;
+                }
+            }
+            a.swap(k, p);
+            perm.swap(k, p);
+            let pivot = a[k][k];
+            smallest = smallest.min(pivot.abs());
+            largest = largest.max(pivot.abs());
+            if pivot == 0.0 || !pivot.is_finite() {
+                return None;
+            }
+            let pivot_row = a[k];
+            for row in &mut a[k + 1..] {
+                let f = row[k] / pivot;
+                row[k] = f;
+                for (x, p) in row[k + 1..].iter_mut().zip(&pivot_row[k + 1..]) {
+                    *x -= f * p;
+                }
+            }
+        }
+        (smallest > largest * f64::EPSILON).then_some(Lu5 { a, perm })
+    }
+
+    /// x with M·x = r.
+    fn solve(&self, r: &[f64; 5]) -> [f64; 5] {
+        let a = &self.a;
+        let mut x = self.perm.map(|i| r[i]);
+        for i in 1..5 {
+            for j in 0..i {
+                x[i] -= a[i][j] * x[j];
+            }
+        }
+        for i in (0..5).rev() {
+            for j in i + 1..5 {
+                x[i] -= a[i][j] * x[j];
+            }
+            x[i] /= a[i][i];
+        }
+        x
+    }
+}
+
+/// The step map for the Jacobian `jac` on the variables `free`: position rows exactly
+/// (least squares if out of reach), direction rows (along `b1`, `b2`) as well as the
+/// remaining freedom allows. Computed once per Jacobian and applied at every iteration.
+fn step_map(jac: &Jacobian, free: &[usize], b1: &Vector3<f64>, b2: &Vector3<f64>) -> StepMap {
     let row = |i: usize, k: usize| match i {
         0..=2 => jac.dp[k][i],
         3 => b1.dot(&jac.do_[k]),
         _ => b2.dot(&jac.do_[k]),
     };
-    if m == 5
-        && let Some(inv) = Matrix5::from_fn(|i, j| row(i, free[j])).try_inverse()
-        && inv.iter().all(|v| v.is_finite())
+    if free.len() == 5
+        && let Some(lu) = Lu5::new(std::array::from_fn(|i| {
+            std::array::from_fn(|j| row(i, free[j]))
+        }))
     {
-        out.fixed_view_mut::<5, 5>(0, 0).copy_from(&inv);
-        return out;
+        return StepMap::Square(lu);
     }
+    StepMap::General(general_map(free, &row))
+}
+
+/// The linear map from the residual r = [position (3); direction (2)] to the Newton step
+/// Δ on the free variables (row i is free variable i) with J·Δ ≈ r, for any number of free
+/// variables: position rows exactly (least squares if out of reach), direction rows as
+/// well as the remaining freedom allows.
+fn general_map(free: &[usize], row: &dyn Fn(usize, usize) -> f64) -> SMatrix<f64, MAX_AXES, 5> {
+    let m = free.len();
+    let mut out = SMatrix::<f64, MAX_AXES, 5>::zeros();
     // Position as a hard constraint: Δ = Jp⁺·rp + N·z, N a basis of what the position rows
     // cannot see, z the least-squares fit of the direction rows within it:
     // Δ = [Jp⁺ − N·A⁺·Jd·Jp⁺ | N·A⁺]·r with A = Jd·N.
@@ -302,5 +391,40 @@ impl Kinematics {
         let sol = self.solve(model, target, guess, length, held, options);
         let direction_ok = held != 0 || sol.direction_residual < 1e-9;
         (sol.position_residual < 1e-9 && direction_ok).then_some(sol)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    proptest::proptest! {
+        #[test]
+        fn lu_solves_are_nalgebras(
+            m in proptest::collection::vec(-10.0..10.0f64, 25),
+            r in proptest::collection::vec(-1.0..1.0f64, 5),
+        ) {
+            let matrix = nalgebra::Matrix5::from_row_slice(&m);
+            let want = matrix.lu().solve(&Vector5::from_column_slice(&r));
+            let lu = Lu5::new(std::array::from_fn(|i| std::array::from_fn(|j| m[i * 5 + j])));
+            if let (Some(want), Some(lu)) = (want, lu) {
+                let got = lu.solve(&[r[0], r[1], r[2], r[3], r[4]]);
+                // Relative to how much the matrix amplifies: the residual M·x − r.
+                let x = Vector5::from_column_slice(&got);
+                let residual = (matrix * x - Vector5::from_column_slice(&r)).norm();
+                proptest::prop_assert!(residual < 1e-10 * (1.0 + matrix.norm() * x.norm()), "{got:?} {want:?}");
+                proptest::prop_assert!((x - want).norm() <= 1e-8 * (1.0 + want.norm()), "{got:?} {want:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn singular_matrices_have_no_lu() {
+        let mut m = [[1.0, 2.0, 0.0, 0.0, 0.0]; 5];
+        for (i, row) in m.iter_mut().enumerate() {
+            row[2 + i % 3] = i as f64;
+        }
+        m[4] = m[3];
+        assert!(Lu5::new(m).is_none());
     }
 }

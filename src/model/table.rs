@@ -29,49 +29,55 @@ impl MotionTable {
             .all(|series| series.iter().all(|&v| v == 0.0))
     }
 
-    /// The error motions at table position `x`.
+    /// The six components at position `x` (mm or degrees, table offset included).
     pub fn sample(&self, x: f64) -> MotionSample {
+        self.sample_with_slope(x).0
+    }
+
+    /// [`MotionTable::sample`] and the slope of each component there (per mm or per
+    /// degree): the interpolating segment's, zero where the ends are held.
+    pub fn sample_with_slope(&self, x: f64) -> (MotionSample, [f64; 6]) {
         let p = &self.positions;
         let mut out = MotionSample::default();
+        let mut slope = [0.0; 6];
         if p.is_empty() {
-            return out;
+            return (out, slope);
         }
         let n = p.len();
-        // Which two entries to blend, and how: (i, j, weight of j).
-        let (i, j, w) = if self.periodic {
+        // Segment ends i, j, the weight of j and 1 / the segment's length (0: held).
+        let (i, j, w, per) = if self.periodic {
             let first = p[0];
             let x = first + (x - first).rem_euclid(360.0);
             if n == 1 || x >= p[n - 1] {
-                // Between the last entry and the first one a period later.
                 let span = first + 360.0 - p[n - 1];
-                let w = if span > 0.0 {
-                    (x - p[n - 1]) / span
+                if span > 0.0 {
+                    (n - 1, 0, (x - p[n - 1]) / span, 1.0 / span)
                 } else {
-                    0.0
-                };
-                (n - 1, 0, w)
+                    (n - 1, 0, 0.0, 0.0)
+                }
             } else {
                 let k = p.partition_point(|&v| v <= x);
                 let (i, j) = (k - 1, k);
-                (i, j, (x - p[i]) / (p[j] - p[i]))
+                (i, j, (x - p[i]) / (p[j] - p[i]), 1.0 / (p[j] - p[i]))
             }
         } else if x <= p[0] {
             out.beyond = x < p[0];
-            (0, 0, 0.0)
+            (0, 0, 0.0, 0.0)
         } else if x >= p[n - 1] {
             out.beyond = x > p[n - 1];
-            (n - 1, n - 1, 0.0)
+            (n - 1, n - 1, 0.0, 0.0)
         } else {
             let k = p.partition_point(|&v| v <= x);
             let (i, j) = (k - 1, k);
-            (i, j, (x - p[i]) / (p[j] - p[i]))
+            (i, j, (x - p[i]) / (p[j] - p[i]), 1.0 / (p[j] - p[i]))
         };
         for (c, series) in self.values.iter().enumerate() {
             if let Some(v) = series {
                 out.values[c] = v[i] + (v[j] - v[i]) * w;
+                slope[c] = (v[j] - v[i]) * per;
             }
         }
-        out
+        (out, slope)
     }
 }
 
