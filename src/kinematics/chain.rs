@@ -145,14 +145,21 @@ impl Angles {
     /// At `q`, from these angles by the angle-addition formula where `q` is near.
     pub(super) fn near(&self, q: &[f64]) -> Self {
         let mut a = *self;
+        self.near_into(q, &mut a);
+        a
+    }
+
+    /// [`Angles::near`] written into `out`, which holds these angles or others made from
+    /// them (only the rotary entries change: no copy of the whole per Newton step).
+    pub(super) fn near_into(&self, q: &[f64], out: &mut Angles) {
         let mut bits = self.rotary;
         while bits != 0 {
             let k = bits.trailing_zeros() as usize;
             bits &= bits - 1;
             let x = q[k];
-            a.q[k] = x;
+            out.q[k] = x;
             let d = (x - self.q[k]).to_radians();
-            a.sc[k] = if d == 0.0 {
+            out.sc[k] = if d == 0.0 {
                 self.sc[k]
             } else if d.abs() <= SERIES_STEP {
                 let (s, c) = self.sc[k];
@@ -162,7 +169,6 @@ impl Angles {
                 x.to_radians().sin_cos()
             };
         }
-        a
     }
 
     /// Sine and cosine of variable `var` (radians).

@@ -176,6 +176,7 @@ impl Kinematics {
         let mut map = step_map(&jac, free, &b1, &b2);
         let (start_position_error, start_direction_error) = pose.deviation(target);
         let mut iterations = 0;
+        let mut near = *angles;
         loop {
             let rp = pose.p - target.p;
             let rd = [b1.dot(&pose.o), b2.dot(&pose.o)];
@@ -193,7 +194,7 @@ impl Kinematics {
                 q[k] -= step[i];
                 biggest = biggest.max(step[i].abs());
             }
-            let near = angles.near(&q[..n]);
+            angles.near_into(&q[..n], &mut near);
             if iterations % 4 == 0 {
                 (pose, jac) = self.jacobian_at(model, &q[..n], length, &near);
                 beyond = jac.beyond;
