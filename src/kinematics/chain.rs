@@ -386,3 +386,48 @@ pub(super) fn walk<const TWIST: bool>(
     }
     acc
 }
+
+/// A point `x` and a direction `d` given in the chain's end frame, carried out to its base
+/// frame: the joints applied from the last to the first. Cheaper than forming the chain's
+/// transform when only one point and one direction are wanted.
+#[inline]
+pub(super) fn carry_out(
+    joints: &[Joint],
+    q: &[f64],
+    angles: &Angles,
+    beyond: &mut bool,
+    x: &mut Vector3<f64>,
+    d: &mut Vector3<f64>,
+) {
+    for j in joints.iter().rev() {
+        let (jt, rotates, _) = j.eval::<false>(q[j.var], angles.get(j.var), beyond);
+        if rotates {
+            *x = jt.r * *x + jt.t;
+            *d = jt.r * *d;
+        } else {
+            *x += jt.t;
+        }
+    }
+}
+
+/// A point `x` and a direction `d` given in the chain's base frame, carried in to its end
+/// frame: the inverse joints applied from the first to the last.
+#[inline]
+pub(super) fn carry_in(
+    joints: &[Joint],
+    q: &[f64],
+    angles: &Angles,
+    beyond: &mut bool,
+    x: &mut Vector3<f64>,
+    d: &mut Vector3<f64>,
+) {
+    for j in joints {
+        let (jt, rotates, _) = j.eval::<false>(q[j.var], angles.get(j.var), beyond);
+        if rotates {
+            *x = jt.r.tr_mul(&(*x - jt.t));
+            *d = jt.r.tr_mul(d);
+        } else {
+            *x -= jt.t;
+        }
+    }
+}

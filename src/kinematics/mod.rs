@@ -238,13 +238,12 @@ impl Kinematics {
             let (pose, jac) = self.jacobian_at(model, q, length, angles);
             return (pose, jac.beyond);
         }
+        // p = W⁻¹·T·t and o = R(W⁻¹·T)·u, applied joint by joint to t and u.
         let chains = self.chains(model);
         let mut beyond = false;
-        let mut unused = [Twist::default(); MAX_AXES];
-        let w = chain::walk::<false>(&chains.workpiece, q, angles, &mut beyond, &mut unused);
-        let t = chain::walk::<false>(&chains.tool, q, angles, &mut beyond, &mut unused);
-        let p = w.apply_inverse(&t.apply(&self.tip(length)));
-        let o = w.r.tr_mul(&t.r.column(2));
+        let (mut p, mut o) = (self.tip(length), Vector3::z());
+        chain::carry_out(&chains.tool, q, angles, &mut beyond, &mut p, &mut o);
+        chain::carry_in(&chains.workpiece, q, angles, &mut beyond, &mut p, &mut o);
         (Pose { p, o }, beyond)
     }
 
