@@ -215,3 +215,32 @@ fn incremental_moves_are_split_like_absolute_ones_without_drift() {
         assert_eq!(a, i, "moving line {k}: G90 {a:?}, G91 {i:?}");
     }
 }
+
+#[test]
+fn a_rotary_value_far_beyond_travel_does_not_explode_the_move() {
+    // Found by fuzzing: A swung through 10^8 degrees crosses the singular cone hundreds of
+    // thousands of times; written with --allow-limit-violations it used to take seconds
+    // and insert some 35,000 blocks per move. A move's pieces are bounded now.
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = random_errors(&machine, &mut Lcg(17));
+    let tolerance = PathTolerance::default();
+    let comp = Compensator::new(
+        &machine,
+        &errors,
+        Options {
+            path: Some(tolerance),
+            allow_limit_violations: true,
+            ..Options::default()
+        },
+    )
+    .unwrap();
+    let program = "G0 X10 Y5 Z10 A18.8 C5\nG1 X11 A100000000 F1000\n";
+    let mut out = Vec::new();
+    let summary = comp.run(program.as_bytes(), "p.nc", &mut out).unwrap();
+    let bound = (nccomp::kinematics::path::MOVE_PIECES + 3) << tolerance.max_depth;
+    assert!(
+        summary.blocks_added > 0 && summary.blocks_added <= bound,
+        "{} blocks added, bound {bound}",
+        summary.blocks_added
+    );
+}

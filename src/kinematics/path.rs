@@ -48,6 +48,10 @@ impl Default for PathTolerance {
     }
 }
 
+/// A move is split into at most this many times 2^max_depth pieces, transitions across
+/// the singular cone included (see [`Kinematics::subdivide`]).
+pub const MOVE_PIECES: usize = 4;
+
 fn lerp(a: &[f64], b: &[f64], s: f64, out: &mut [f64; MAX_AXES]) {
     for k in 0..a.len() {
         out[k] = a[k] + (b[k] - a[k]) * s;
@@ -96,6 +100,8 @@ impl Kinematics {
     /// compensated paths stay within `tol` at their quarter points. Returns the pieces
     /// after the start, in order, the last ending at s = 1 with `cb`; a move that needs no
     /// split gives one piece. Axes in `hold` keep their nominal values at inserted points.
+    /// Transitions stop refining once the move has about [`MOVE_PIECES`]·2^max_depth
+    /// pieces (a bound on the work and the output for any program).
     #[allow(clippy::too_many_arguments)]
     pub fn subdivide(
         &self,
@@ -282,7 +288,12 @@ impl Kinematics {
                 });
                 prev = (s, q);
             }
-            if within || steps >= 1 << tol.max_depth {
+            // A move swung through the cone thousands of times (an absurd rotary value
+            // written with --allow-limit-violations) would otherwise take minutes and
+            // millions of blocks: no move gets more than MOVE_PIECES times the halving's
+            // 2^max_depth pieces.
+            let budget = MOVE_PIECES << tol.max_depth;
+            if within || steps >= 1 << tol.max_depth || out.len() + 2 * steps > budget {
                 out.extend(pieces);
                 return;
             }
