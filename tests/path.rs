@@ -26,7 +26,9 @@ fn a_perfect_machine_needs_no_split() {
         [200.0, -30.0, 20.0, 20.0, 180.0],
     );
     let dev = kin.deviation((&qa, &qb), (&qa, &qb), 0.0, &EIGHTHS, &opts);
-    assert_eq!(dev.position, 0.0);
+    // Zero but for rounding: the target comes with its Jacobian, the real pose without,
+    // and the two take their products in different orders.
+    assert!(dev.position < 1e-12, "{}", dev.position);
     let pieces = kin.subdivide(
         (&qa, &qb),
         (&qa, &qb),
