@@ -387,47 +387,83 @@ pub(super) fn walk<const TWIST: bool>(
     acc
 }
 
-/// A point `x` and a direction `d` given in the chain's end frame, carried out to its base
-/// frame: the joints applied from the last to the first. Cheaper than forming the chain's
-/// transform when only one point and one direction are wanted.
-#[inline]
-pub(super) fn carry_out(
-    joints: &[Joint],
-    q: &[f64],
-    angles: &Angles,
-    beyond: &mut bool,
-    x: &mut Vector3<f64>,
-    d: &mut Vector3<f64>,
-) {
-    for j in joints.iter().rev() {
-        let (jt, rotates, _) = j.eval::<false>(q[j.var], angles.get(j.var), beyond);
-        if rotates {
-            *x = jt.r * *x + jt.t;
-            *d = jt.r * *d;
-        } else {
-            *x += jt.t;
+/// The vectors a pose evaluation carries through the joints: the tip `x`, the tool
+/// direction `d` and, with `AXES`, the directions of the rotary axes met so far (entry per
+/// variable, bit k of `carried` set once variable k's is in).
+pub(super) struct Carried {
+    pub x: Vector3<f64>,
+    pub d: Vector3<f64>,
+    pub axes: [Vector3<f64>; MAX_AXES],
+    pub carried: u32,
+}
+
+impl Carried {
+    #[inline]
+    fn rotate_axes(&mut self, f: impl Fn(&Vector3<f64>) -> Vector3<f64>) {
+        let mut bits = self.carried;
+        while bits != 0 {
+            let k = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            self.axes[k] = f(&self.axes[k]);
         }
     }
 }
 
-/// A point `x` and a direction `d` given in the chain's base frame, carried in to its end
-/// frame: the inverse joints applied from the first to the last.
+/// The vectors given in the chain's end frame, carried out to its base frame: the joints
+/// applied from the last to the first. Cheaper than forming the chain's transform when
+/// only a few vectors are wanted.
 #[inline]
-pub(super) fn carry_in(
+pub(super) fn carry_out<const AXES: bool>(
     joints: &[Joint],
     q: &[f64],
     angles: &Angles,
     beyond: &mut bool,
-    x: &mut Vector3<f64>,
-    d: &mut Vector3<f64>,
+    c: &mut Carried,
+) {
+    for j in joints.iter().rev() {
+        let (jt, rotates, twist) = j.eval::<AXES>(q[j.var], angles.get(j.var), beyond);
+        if rotates {
+            c.x = jt.r * c.x + jt.t;
+            c.d = jt.r * c.d;
+            if AXES {
+                c.rotate_axes(|a| jt.r * *a);
+            }
+        } else {
+            c.x += jt.t;
+        }
+        if AXES && j.kind == AxisKind::Rotary {
+            // In the joint's parent frame, as the joints before it will carry it.
+            c.axes[j.var] = twist.axis;
+            c.carried |= 1 << j.var;
+        }
+    }
+}
+
+/// The vectors given in the chain's base frame, carried in to its end frame: the inverse
+/// joints applied from the first to the last.
+#[inline]
+pub(super) fn carry_in<const AXES: bool>(
+    joints: &[Joint],
+    q: &[f64],
+    angles: &Angles,
+    beyond: &mut bool,
+    c: &mut Carried,
 ) {
     for j in joints {
         let (jt, rotates, _) = j.eval::<false>(q[j.var], angles.get(j.var), beyond);
         if rotates {
-            *x = jt.r.tr_mul(&(*x - jt.t));
-            *d = jt.r.tr_mul(d);
+            c.x = jt.r.tr_mul(&(c.x - jt.t));
+            c.d = jt.r.tr_mul(&c.d);
+            if AXES {
+                c.rotate_axes(|a| jt.r.tr_mul(a));
+            }
         } else {
-            *x -= jt.t;
+            c.x -= jt.t;
+        }
+        if AXES && j.kind == AxisKind::Rotary {
+            // Its own turn leaves the axis where it is: ã in the joint's frame.
+            c.axes[j.var] = j.dir;
+            c.carried |= 1 << j.var;
         }
     }
 }

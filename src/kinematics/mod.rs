@@ -238,13 +238,30 @@ impl Kinematics {
             let (pose, jac) = self.jacobian_at(model, q, length, angles);
             return (pose, jac.beyond);
         }
-        // p = W⁻¹·T·t and o = R(W⁻¹·T)·u, applied joint by joint to t and u.
+        let (c, beyond) = self.carry::<false>(model, q, length, angles);
+        (Pose { p: c.x, o: c.d }, beyond)
+    }
+
+    /// p = W⁻¹·T·t and o = R(W⁻¹·T)·u, applied joint by joint to t and u (and with `AXES`
+    /// the rotary axes' directions, to the workpiece frame).
+    fn carry<const AXES: bool>(
+        &self,
+        model: Model,
+        q: &[f64],
+        length: f64,
+        angles: &Angles,
+    ) -> (chain::Carried, bool) {
         let chains = self.chains(model);
         let mut beyond = false;
-        let (mut p, mut o) = (self.tip(length), Vector3::z());
-        chain::carry_out(&chains.tool, q, angles, &mut beyond, &mut p, &mut o);
-        chain::carry_in(&chains.workpiece, q, angles, &mut beyond, &mut p, &mut o);
-        (Pose { p, o }, beyond)
+        let mut c = chain::Carried {
+            x: self.tip(length),
+            d: Vector3::z(),
+            axes: [Vector3::zeros(); MAX_AXES],
+            carried: 0,
+        };
+        chain::carry_out::<AXES>(&chains.tool, q, angles, &mut beyond, &mut c);
+        chain::carry_in::<AXES>(&chains.workpiece, q, angles, &mut beyond, &mut c);
+        (c, beyond)
     }
 
     /// The pose and its Jacobian at `q`. The Jacobian includes the error motions' change
@@ -260,7 +277,7 @@ impl Kinematics {
         length: f64,
         angles: &Angles,
     ) -> (Pose, Jacobian) {
-        self.evaluate::<true>(model, q, length, angles)
+        self.evaluate(model, q, length, angles)
     }
 
     /// The pose, and of its Jacobian only the rotary axes' directions (`axis_dir`), unless
@@ -273,18 +290,20 @@ impl Kinematics {
         angles: &Angles,
     ) -> (Pose, Jacobian) {
         if self.turning.is_some() {
-            return self.evaluate::<true>(model, q, length, angles);
+            return self.evaluate(model, q, length, angles);
         }
-        self.evaluate::<false>(model, q, length, angles)
+        let (c, beyond) = self.carry::<true>(model, q, length, angles);
+        let jac = Jacobian {
+            n: self.axes.len(),
+            dp: [Vector3::zeros(); MAX_AXES],
+            do_: [Vector3::zeros(); MAX_AXES],
+            axis_dir: c.axes,
+            beyond,
+        };
+        (Pose { p: c.x, o: c.d }, jac)
     }
 
-    fn evaluate<const COLUMNS: bool>(
-        &self,
-        model: Model,
-        q: &[f64],
-        length: f64,
-        angles: &Angles,
-    ) -> (Pose, Jacobian) {
+    fn evaluate(&self, model: Model, q: &[f64], length: f64, angles: &Angles) -> (Pose, Jacobian) {
         let chains = self.chains(model);
         let mut beyond = false;
         let mut twists = [Twist::default(); MAX_AXES];
@@ -308,11 +327,9 @@ impl Kinematics {
             if self.kinds[k] == AxisKind::Rotary {
                 jac.axis_dir[k] = w.r.tr_mul(&tw.axis);
             }
-            if COLUMNS {
-                let v = tw.omega.cross(&(pw - tw.c)) + tw.v;
-                jac.dp[k] = w.r.tr_mul(&(v * sign));
-                jac.do_[k] = w.r.tr_mul(&(tw.omega.cross(&ow) * sign));
-            }
+            let v = tw.omega.cross(&(pw - tw.c)) + tw.v;
+            jac.dp[k] = w.r.tr_mul(&(v * sign));
+            jac.do_[k] = w.r.tr_mul(&(tw.omega.cross(&ow) * sign));
         };
         for j in &chains.workpiece {
             column(j.var, &twists[j.var], -1.0);
@@ -448,6 +465,30 @@ mod tests {
                     for got in poses {
                         let (dp, da) = got.deviation(&want);
                         proptest::prop_assert!(dp < 1e-11 && da < 1e-14, "{} {model:?} q={q:?}: {dp} mm, {da} rad", MACHINES[m]);
+                    }
+                }
+            }
+        }
+
+        #[test]
+        fn carried_axis_directions_are_the_jacobians(
+            m in 0..MACHINES.len(),
+            u in proptest::collection::vec(0.0..1.0f64, MAX_AXES),
+        ) {
+            let (machine, errors) = fixture(MACHINES[m]);
+            for chain in 0..machine.tool_chains.len() {
+                let kin = Kinematics::new(&machine, &errors, chain).unwrap();
+                let q = axis_values(&machine, &kin, &u);
+                let angles = kin.angles(&q);
+                for model in [Model::Actual, Model::Nominal] {
+                    let (pose, axes) = kin.axes_at(model, &q, 30.0, &angles);
+                    let (want, jac) = kin.pose_and_jacobian(model, &q, 30.0);
+                    let (dp, da) = pose.deviation(&want);
+                    proptest::prop_assert!(dp < 1e-11 && da < 1e-14);
+                    proptest::prop_assert_eq!(axes.beyond, jac.beyond);
+                    for k in 0..kin.len() {
+                        let off = (axes.axis_dir[k] - jac.axis_dir[k]).norm();
+                        proptest::prop_assert!(off < 1e-14, "{} {model:?} var {k}: {:?} {:?}", MACHINES[m], axes.axis_dir[k], jac.axis_dir[k]);
                     }
                 }
             }
