@@ -306,10 +306,10 @@ impl Kinematics {
     fn evaluate(&self, model: Model, q: &[f64], length: f64, angles: &Angles) -> (Pose, Jacobian) {
         let chains = self.chains(model);
         let mut beyond = false;
+        // Each variable moves one joint of one chain: one table of motions serves both.
         let mut twists = [Twist::default(); MAX_AXES];
         let w = chain::walk::<true>(&chains.workpiece, q, angles, &mut beyond, &mut twists);
-        let mut tool_twists = [Twist::default(); MAX_AXES];
-        let t = chain::walk::<true>(&chains.tool, q, angles, &mut beyond, &mut tool_twists);
+        let t = chain::walk::<true>(&chains.tool, q, angles, &mut beyond, &mut twists);
         // The world tip and direction, to take velocities of.
         let pw = t.apply(&self.tip(length));
         let ow = t.r.column(2);
@@ -323,7 +323,8 @@ impl Kinematics {
             beyond,
         };
         // The tool's motion moves the tip; the workpiece's moves the part the other way.
-        let mut column = |k: usize, tw: &Twist, sign: f64| {
+        let mut column = |k: usize, sign: f64| {
+            let tw = &twists[k];
             if self.kinds[k] == AxisKind::Rotary {
                 jac.axis_dir[k] = w.r.tr_mul(&tw.axis);
             }
@@ -332,17 +333,13 @@ impl Kinematics {
             jac.do_[k] = w.r.tr_mul(&(tw.omega.cross(&ow) * sign));
         };
         for j in &chains.workpiece {
-            column(j.var, &twists[j.var], -1.0);
+            column(j.var, -1.0);
         }
         for j in &chains.tool {
-            column(j.var, &tool_twists[j.var], 1.0);
+            column(j.var, 1.0);
         }
         if let Some(turning) = &self.turning {
-            let tw = if chains.workpiece.iter().any(|j| j.var == turning.spindle) {
-                &twists[turning.spindle]
-            } else {
-                &tool_twists[turning.spindle]
-            };
+            let tw = &twists[turning.spindle];
             let line = (w.apply_inverse(&tw.c), w.r.tr_mul(&tw.axis));
             return turning.pose(&p, line, jac);
         }
