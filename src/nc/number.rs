@@ -52,6 +52,12 @@ pub fn same_text(a: f64, b: f64, decimals: u8) -> bool {
 /// Append the integer `mantissa · 10^-decimals` with exactly `decimals` digits after the
 /// point (no point for 0), never a negative zero.
 pub fn write_scaled(mantissa: i128, decimals: u8, out: &mut String) {
+    if let Ok(m) = u64::try_from(mantissa.unsigned_abs())
+        && decimals <= 20
+    {
+        write_small(m, mantissa < 0, usize::from(decimals), out);
+        return;
+    }
     // Sign, digits, point and leading zeros at once: no growing step by step.
     out.reserve(42 + usize::from(decimals));
     if mantissa < 0 {
@@ -89,6 +95,42 @@ pub fn write_scaled(mantissa: i128, decimals: u8, out: &mut String) {
                 out.push('.');
             }
         }
+    }
+}
+
+/// [`write_scaled`] for the usual numbers (64 bits, at most 20 decimals): the text is put
+/// together right to left on the stack and appended at once, not a character at a time.
+fn write_small(mut m: u64, negative: bool, decimals: usize, out: &mut String) {
+    // Sign, 20 integer digits, point, 20 decimals.
+    let mut buf = [0u8; 42];
+    let mut pos = buf.len();
+    for _ in 0..decimals {
+        pos -= 1;
+        buf[pos] = b'0' + (m % 10) as u8;
+        m /= 10;
+    }
+    if decimals > 0 {
+        pos -= 1;
+        buf[pos] = b'.';
+    }
+    loop {
+        pos -= 1;
+        buf[pos] = b'0' + (m % 10) as u8;
+        m /= 10;
+        if m == 0 {
+            break;
+        }
+    }
+    if negative {
+        pos -= 1;
+        buf[pos] = b'-';
+    }
+    // Characters the compiler can see are ASCII (the mask) are pushed as bytes, without the
+    // encoding step (`str::from_utf8` on a few bytes would cost more than the whole number).
+    let text = &buf[pos..];
+    out.reserve(text.len());
+    for &b in text {
+        out.push(char::from(b & 0x7f));
     }
 }
 
@@ -141,6 +183,7 @@ pub fn fixed(value: f64, decimals: u8) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::strategy::{Just, Strategy};
 
     #[test]
     fn decimals_from_resolution() {
@@ -165,6 +208,19 @@ mod tests {
         assert_eq!(fixed(f64::NAN, 2), "NaN");
     }
 
+    /// `m · 10^-d` as text, the slow way.
+    fn scaled_text(m: i128, d: u8) -> String {
+        let digits = m.unsigned_abs().to_string();
+        let digits = format!("{digits:0>w$}", w = usize::from(d) + 1);
+        let (int, frac) = digits.split_at(digits.len() - usize::from(d));
+        let sign = if m < 0 { "-" } else { "" };
+        if d == 0 {
+            format!("{sign}{int}")
+        } else {
+            format!("{sign}{int}.{frac}")
+        }
+    }
+
     proptest::proptest! {
         #[test]
         fn fast_path_prints_what_std_prints(v in -1e6..1e6f64, d in 0u8..8) {
@@ -177,14 +233,24 @@ mod tests {
 
         #[test]
         fn scaled_integers_print_their_digits(m in proptest::num::i128::ANY, d in 0u8..45) {
-            let digits = m.unsigned_abs().to_string();
-            let digits = format!("{digits:0>w$}", w = usize::from(d) + 1);
-            let (int, frac) = digits.split_at(digits.len() - usize::from(d));
-            let sign = if m < 0 { "-" } else { "" };
-            let expected = if d == 0 { format!("{sign}{int}") } else { format!("{sign}{int}.{frac}") };
             let mut out = String::new();
             write_scaled(m, d, &mut out);
-            proptest::prop_assert_eq!(out, expected);
+            proptest::prop_assert_eq!(out, scaled_text(m, d));
+        }
+
+        #[test]
+        fn small_scaled_integers_print_their_digits(
+            m in proptest::prop_oneof![
+                proptest::num::i64::ANY.prop_map(i128::from),
+                -100_000_000i128..100_000_000,
+                Just(i128::from(u64::MAX)),
+                Just(-i128::from(u64::MAX)),
+            ],
+            d in 0u8..24,
+        ) {
+            let mut out = String::from("kept");
+            write_scaled(m, d, &mut out);
+            proptest::prop_assert_eq!(out, format!("kept{}", scaled_text(m, d)));
         }
 
         #[test]
