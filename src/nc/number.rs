@@ -99,28 +99,41 @@ pub fn write_scaled(mantissa: i128, decimals: u8, out: &mut String) {
 }
 
 /// [`write_scaled`] for the usual numbers (64 bits, at most 20 decimals): the text is put
-/// together right to left on the stack and appended at once, not a character at a time.
+/// together right to left on the stack, two digits at a time, and appended at once.
 fn write_small(mut m: u64, negative: bool, decimals: usize, out: &mut String) {
+    // "00" to "99".
+    const PAIRS: &[u8; 200] = b"0001020304050607080910111213141516171819\
+        2021222324252627282930313233343536373839404142434445464748495051525354555657585960616263\
+        646566676869707172737475767778798081828384858687888990919293949596979899";
+    // The last one or two digits of `m` (taken off it), before `pos` in `buf`.
+    fn put(buf: &mut [u8], pos: &mut usize, m: &mut u64, pair: bool) {
+        let (k, digits) = if pair { (100, 2) } else { (10, 1) };
+        let r = (*m % k) as usize;
+        *m /= k;
+        *pos -= digits;
+        let at = if pair { 2 * r } else { 2 * r + 1 };
+        buf[*pos..*pos + digits].copy_from_slice(&PAIRS[at..at + digits]);
+    }
     // Sign, 20 integer digits, point, 20 decimals.
     let mut buf = [0u8; 42];
     let mut pos = buf.len();
-    for _ in 0..decimals {
-        pos -= 1;
-        buf[pos] = b'0' + (m % 10) as u8;
-        m /= 10;
+    let mut left = decimals;
+    while left >= 2 {
+        put(&mut buf, &mut pos, &mut m, true);
+        left -= 2;
+    }
+    if left == 1 {
+        put(&mut buf, &mut pos, &mut m, false);
     }
     if decimals > 0 {
         pos -= 1;
         buf[pos] = b'.';
     }
-    loop {
-        pos -= 1;
-        buf[pos] = b'0' + (m % 10) as u8;
-        m /= 10;
-        if m == 0 {
-            break;
-        }
+    while m >= 100 {
+        put(&mut buf, &mut pos, &mut m, true);
     }
+    let pair = m >= 10;
+    put(&mut buf, &mut pos, &mut m, pair);
     if negative {
         pos -= 1;
         buf[pos] = b'-';
@@ -154,23 +167,57 @@ pub fn write_fixed(value: f64, decimals: u8, out: &mut String) {
 }
 
 /// [`write_fixed`], returning the number written as the NC parser reads it back (the
-/// nearest f64 to the text), without reading the text: below 2^53 units of the last
-/// digit, the integer and the power of ten are exact and their quotient is that f64.
+/// nearest f64 to the text), without reading the text.
 pub fn write_fixed_value(value: f64, decimals: u8, out: &mut String) -> f64 {
-    const POW10: [f64; 13] = [
-        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12,
-    ];
-    if let Some(n) = scaled(value, decimals)
-        && n.unsigned_abs() <= 1 << 53
-        && let Some(p) = POW10.get(usize::from(decimals))
-    {
-        write_scaled(i128::from(n), decimals, out);
-        let v = n.unsigned_abs() as f64 / p;
-        return if n < 0 { -v } else { v };
+    Rounded::new(value, decimals).write(out)
+}
+
+/// A value to be written with `decimals` digits after the point, its digits worked out once
+/// for both questions a pass asks of it: does a word print the same ([`same_text`]), and
+/// what is written instead ([`write_fixed_value`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Rounded {
+    value: f64,
+    decimals: u8,
+    scaled: Option<i64>,
+}
+
+impl Rounded {
+    pub fn new(value: f64, decimals: u8) -> Self {
+        Rounded {
+            value,
+            decimals,
+            scaled: scaled(value, decimals),
+        }
     }
-    let start = out.len();
-    write_fixed(value, decimals, out);
-    crate::nc::to_f64(&out.as_bytes()[start..])
+
+    /// Whether `other` prints the same: `same_text(other, value, decimals)`.
+    pub fn prints_as(&self, other: f64) -> bool {
+        match (scaled(other, self.decimals), self.scaled) {
+            (Some(x), Some(y)) => x == y,
+            _ => fixed(other, self.decimals) == fixed(self.value, self.decimals),
+        }
+    }
+
+    /// [`write_fixed_value`]: below 2^53 units of the last digit, the integer and the power
+    /// of ten are exact and their quotient is the f64 the text reads as.
+    pub fn write(&self, out: &mut String) -> f64 {
+        const POW10: [f64; 13] = [
+            1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12,
+        ];
+        if let Some(n) = self.scaled
+            && n.unsigned_abs() <= 1 << 53
+            && let Some(p) = POW10.get(usize::from(self.decimals))
+        {
+            // 2^53 has 16 digits, and at most 12 decimals get here.
+            write_small(n.unsigned_abs(), n < 0, usize::from(self.decimals), out);
+            let v = n.unsigned_abs() as f64 / p;
+            return if n < 0 { -v } else { v };
+        }
+        let start = out.len();
+        write_fixed(self.value, self.decimals, out);
+        crate::nc::to_f64(&out.as_bytes()[start..])
+    }
 }
 
 /// `value` with exactly `decimals` digits after the point.
@@ -266,6 +313,7 @@ mod tests {
         fn same_text_agrees_with_strings(a in -1e4..1e4f64, delta in -1e-3..1e-3f64, d in 0u8..6) {
             let b = a + delta;
             proptest::prop_assert_eq!(same_text(a, b, d), fixed(a, d) == fixed(b, d));
+            proptest::prop_assert_eq!(Rounded::new(b, d).prints_as(a), fixed(a, d) == fixed(b, d));
         }
     }
 }

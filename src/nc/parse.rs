@@ -3,7 +3,7 @@
 //! Two layers, both lossless:
 //!
 //! * [`lines`] splits a program into [`Line`]s (content + ending) without allocating; the
-//!   newline search is nom's `FindSubstring`, which is `memchr` underneath.
+//!   newline search is `memchr`.
 //! * [`parse_line`] cuts one line's content into [`Token`]s that cover every byte, in order.
 //!   It never fails: bytes that are nothing else become [`TokenKind::Other`].
 //!
@@ -43,7 +43,7 @@ use nom::character::complete::{char, digit0, digit1, one_of, satisfy};
 use nom::combinator::{consumed, not, opt, peek, recognize, rest, verify};
 use nom::multi::{many0_count, many1_count};
 use nom::sequence::{preceded, terminated};
-use nom::{FindSubstring, IResult, Parser};
+use nom::{IResult, Parser};
 
 use super::{Line, Token, TokenKind, Value, Word};
 
@@ -77,7 +77,7 @@ impl<'a> Iterator for Lines<'a> {
         let offset = self.pos;
         let rest = self.src.get(offset..).filter(|r| !r.is_empty())?;
         self.number += 1;
-        let (content, ending) = match rest.find_substring(&b"\n"[..]) {
+        let (content, ending) = match memchr::memchr(b'\n', rest) {
             Some(nl) => {
                 let cut = if nl > 0 && rest[nl - 1] == b'\r' {
                     nl - 1
