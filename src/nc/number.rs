@@ -105,35 +105,40 @@ fn write_small(mut m: u64, negative: bool, decimals: usize, out: &mut String) {
     const PAIRS: &[u8; 200] = b"0001020304050607080910111213141516171819\
         2021222324252627282930313233343536373839404142434445464748495051525354555657585960616263\
         646566676869707172737475767778798081828384858687888990919293949596979899";
-    // The last one or two digits of `m` (taken off it), before `pos` in `buf`.
-    fn put(buf: &mut [u8], pos: &mut usize, m: &mut u64, pair: bool) {
-        let (k, digits) = if pair { (100, 2) } else { (10, 1) };
-        let r = (*m % k) as usize;
-        *m /= k;
-        *pos -= digits;
-        let at = if pair { 2 * r } else { 2 * r + 1 };
-        buf[*pos..*pos + digits].copy_from_slice(&PAIRS[at..at + digits]);
+    // The last two digits of `m` (taken off it), or its last one, before `pos` in `buf`.
+    fn put_two(buf: &mut [u8; 42], pos: &mut usize, m: &mut u64) {
+        let r = (*m % 100) as usize;
+        *m /= 100;
+        *pos -= 2;
+        buf[*pos] = PAIRS[2 * r];
+        buf[*pos + 1] = PAIRS[2 * r + 1];
+    }
+    fn put_one(buf: &mut [u8; 42], pos: &mut usize, m: &mut u64) {
+        *pos -= 1;
+        buf[*pos] = b'0' + (*m % 10) as u8;
+        *m /= 10;
     }
     // Sign, 20 integer digits, point, 20 decimals.
     let mut buf = [0u8; 42];
     let mut pos = buf.len();
-    let mut left = decimals;
-    while left >= 2 {
-        put(&mut buf, &mut pos, &mut m, true);
-        left -= 2;
+    for _ in 0..decimals / 2 {
+        put_two(&mut buf, &mut pos, &mut m);
     }
-    if left == 1 {
-        put(&mut buf, &mut pos, &mut m, false);
+    if decimals % 2 == 1 {
+        put_one(&mut buf, &mut pos, &mut m);
     }
     if decimals > 0 {
         pos -= 1;
         buf[pos] = b'.';
     }
-    while m >= 100 {
-        put(&mut buf, &mut pos, &mut m, true);
+    // The integer part: at least one digit.
+    let point = pos;
+    while m >= 10 {
+        put_two(&mut buf, &mut pos, &mut m);
     }
-    let pair = m >= 10;
-    put(&mut buf, &mut pos, &mut m, pair);
+    if m > 0 || pos == point {
+        put_one(&mut buf, &mut pos, &mut m);
+    }
     if negative {
         pos -= 1;
         buf[pos] = b'-';
