@@ -110,21 +110,33 @@ pub fn parse_line(content: &[u8], out: &mut Vec<Token>) {
     tokenize::<true>(content, out);
 }
 
-/// [`parse_line`]; `FAST`: words of the usual shape are read by [`plain_word`] (without
-/// it, every token takes the general way, which the tests compare it with).
+/// [`parse_line`]; `FAST`: words of the usual shape ([`plain_word`]) and single spaces are
+/// taken at once (without it, every token takes the general way, which the tests compare
+/// it with).
 fn tokenize<const FAST: bool>(content: &[u8], out: &mut Vec<Token>) {
     out.clear();
     let mut start = 0;
     let mut block_start = true;
     while start < content.len() {
-        if FAST && let Some((end, word)) = plain_word(content, start) {
-            out.push(Token {
-                kind: TokenKind::Word(word),
-                span: start..end,
-            });
-            block_start = false;
-            start = end;
-            continue;
+        if FAST {
+            if let Some((end, word)) = plain_word(content, start) {
+                out.push(Token {
+                    kind: TokenKind::Word(word),
+                    span: start..end,
+                });
+                block_start = false;
+                start = end;
+                continue;
+            }
+            // The single space between words.
+            if content[start] == b' ' && !content.get(start + 1).is_some_and(|&b| is_space(b)) {
+                out.push(Token {
+                    kind: TokenKind::Space,
+                    span: start..start + 1,
+                });
+                start += 1;
+                continue;
+            }
         }
         let input = &content[start..];
         let (len, kind) = token(input, block_start);
