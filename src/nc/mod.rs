@@ -97,12 +97,7 @@ pub struct Edit {
 /// Append `line` to `out` with `edits` applied (sorted here; edits at the same place keep
 /// their order), then its line ending. Bytes no edit touches are copied as they were.
 pub fn emit_line(line: &Line<'_>, edits: &mut [Edit], out: &mut Vec<u8>) {
-    // A pass usually makes its edits in order.
-    if !edits.is_sorted_by_key(|e| (e.at.start, e.at.end)) {
-        edits.sort_by_key(|e| (e.at.start, e.at.end));
-    }
-    let texts: usize = edits.iter().map(|e| e.text.len()).sum();
-    out.reserve(line.content.len() + texts + line.ending.len());
+    edits.sort_by_key(|e| (e.at.start, e.at.end));
     let mut pos = 0;
     for e in edits.iter() {
         out.extend_from_slice(&line.content[pos..e.at.start]);

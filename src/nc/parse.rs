@@ -358,29 +358,33 @@ fn plain_word(content: &[u8], start: usize) -> Option<(usize, Word)> {
         }
     };
     pos += 1;
+    // Up to 15 digits (below 10^15 < 2^53, so exact); longer numbers take the general way.
     let mut mantissa: u64 = 0;
     let mut digits = |pos: &mut usize| {
-        let from = *pos;
-        while let Some(&b) = content.get(*pos)
-            && b.is_ascii_digit()
-        {
-            mantissa = mantissa * 10 + u64::from(b - b'0');
-            if mantissa > 1 << 53 {
-                return None;
+        let mut n = 0;
+        for &b in &content[*pos..] {
+            let d = b.wrapping_sub(b'0');
+            if d > 9 {
+                break;
             }
-            *pos += 1;
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
+            n += 1;
         }
-        Some(*pos - from)
+        *pos += n;
+        n
     };
-    let whole = digits(&mut pos)?;
+    let whole = digits(&mut pos);
     let mut frac = 0;
     if content.get(pos) == Some(&b'.') {
         pos += 1;
-        frac = digits(&mut pos)?;
+        frac = digits(&mut pos);
         if whole == 0 && frac == 0 {
             return None;
         }
     } else if whole == 0 {
+        return None;
+    }
+    if whole + frac > 15 {
         return None;
     }
     let value = mantissa as f64 / POW10.get(frac)?;
