@@ -97,11 +97,7 @@ impl<'c, 'm> Run<'c, 'm> {
         if let Some(number) = tokens.iter().find_map(|t| match &t.kind {
             TokenKind::Word(w) if w.letter == b'N' => {
                 let digits = &line.content[w.value_span.clone()];
-                std::str::from_utf8(digits)
-                    .ok()?
-                    .parse::<u64>()
-                    .ok()
-                    .map(|v| (v, digits.len()))
+                block_number(digits).map(|v| (v, digits.len()))
             }
             _ => None,
         }) {
@@ -231,6 +227,22 @@ impl Compensator<'_> {
     }
 }
 
+/// An N word's number as `str::parse::<u64>` reads it (an optional `+`, then digits), without
+/// the UTF-8 check.
+fn block_number(text: &[u8]) -> Option<u64> {
+    let digits = text.strip_prefix(b"+").unwrap_or(text);
+    if digits.is_empty() {
+        return None;
+    }
+    digits.iter().try_fold(0u64, |n, &b| {
+        if b.is_ascii_digit() {
+            n.checked_mul(10)?.checked_add(u64::from(b - b'0'))
+        } else {
+            None
+        }
+    })
+}
+
 /// A diagnostic at byte `offset` of `line`'s content, as [`Diagnostic::at`] gives it for
 /// the whole file (a last line's stray `\r` is not shown).
 fn in_line(path: &str, line: &nc::Line<'_>, offset: usize, message: String) -> Diagnostic {
@@ -295,10 +307,7 @@ impl<R: Read> Chunks<R> {
             let cut = if self.eof {
                 self.filled
             } else {
-                self.buf[..self.filled]
-                    .iter()
-                    .rposition(|&b| b == b'\n')
-                    .map_or(0, |i| i + 1)
+                memchr::memrchr(b'\n', &self.buf[..self.filled]).map_or(0, |i| i + 1)
             };
             // Read more unless a good share of the buffer holds whole lines.
             if self.eof || (cut > 0 && self.filled >= self.buf.len() / 2) {
@@ -308,7 +317,7 @@ impl<R: Read> Chunks<R> {
                 self.taken = cut;
                 let chunk = &self.buf[..cut];
                 let before = self.lines;
-                self.lines += chunk.iter().filter(|&&b| b == b'\n').count();
+                self.lines += memchr::memchr_iter(b'\n', chunk).count();
                 return Ok(Some((chunk, before, self.offset)));
             }
             if self.filled == self.buf.len() {
@@ -403,6 +412,11 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn block_numbers_read_as_std_reads_them(text in "[+-]?[0-9]{0,22}[.a ]?[0-9]{0,2}") {
+            prop_assert_eq!(block_number(text.as_bytes()), text.parse::<u64>().ok());
+        }
+
         #[test]
         fn chunks_are_whole_lines_in_order(
             bytes in prop::collection::vec(prop::sample::select(b"ab\r\n".to_vec()), 0..200),

@@ -111,7 +111,12 @@ impl Pass<'_> {
                     ));
                 }
             };
-            let code10 = (number * 10.0).round() as i64;
+            // G and M codes in tenths (G43.4 is 434); axis words need no rounding.
+            let code10 = if matches!(letter, 'G' | 'M') {
+                (number * 10.0).round() as i64
+            } else {
+                0
+            };
             match letter {
                 'G' => match gcodes::classify(code10) {
                     GCode::Unsupported(what) => {

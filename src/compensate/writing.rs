@@ -4,7 +4,7 @@ use super::exact::{self, Position};
 use super::{Edit, Pass, State, Summary};
 use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
-use crate::nc::number::{same_text, write_fixed_value};
+use crate::nc::number::{Rounded, same_text, write_fixed_value};
 use crate::nc::{self, Token, TokenKind, Value};
 
 /// The value and decimals of a token known to be a numeric word, and its value's span.
@@ -43,12 +43,13 @@ impl Pass<'_> {
                     let (old, decimals, span) = number(&tokens[i]);
                     let d = decimals.max(self.res_decimals(v, unit));
                     state.decimals[v] = d;
-                    if same_text(old, value, d) {
+                    let rounded = Rounded::new(value, d);
+                    if rounded.prints_as(old) {
                         state.emitted[v] = unit.to_mm(old);
                         state.written[v] = state.nominal_exact[v];
                     } else {
                         let mut text = state.spare_texts.pop().unwrap_or_default();
-                        state.emitted[v] = unit.to_mm(write_fixed_value(value, d, &mut text));
+                        state.emitted[v] = unit.to_mm(rounded.write(&mut text));
                         state.written[v] = Position::Decimal {
                             value,
                             decimals: d,

@@ -52,6 +52,12 @@ pub fn same_text(a: f64, b: f64, decimals: u8) -> bool {
 /// Append the integer `mantissa · 10^-decimals` with exactly `decimals` digits after the
 /// point (no point for 0), never a negative zero.
 pub fn write_scaled(mantissa: i128, decimals: u8, out: &mut String) {
+    if let Ok(m) = u64::try_from(mantissa.unsigned_abs())
+        && decimals <= 20
+    {
+        write_small(m, mantissa < 0, usize::from(decimals), out);
+        return;
+    }
     // Sign, digits, point and leading zeros at once: no growing step by step.
     out.reserve(42 + usize::from(decimals));
     if mantissa < 0 {
@@ -92,6 +98,60 @@ pub fn write_scaled(mantissa: i128, decimals: u8, out: &mut String) {
     }
 }
 
+/// [`write_scaled`] for the usual numbers (64 bits, at most 20 decimals): the text is put
+/// together right to left on the stack, two digits at a time, and appended at once.
+fn write_small(mut m: u64, negative: bool, decimals: usize, out: &mut String) {
+    // "00" to "99".
+    const PAIRS: &[u8; 200] = b"0001020304050607080910111213141516171819\
+        2021222324252627282930313233343536373839404142434445464748495051525354555657585960616263\
+        646566676869707172737475767778798081828384858687888990919293949596979899";
+    // The last two digits of `m` (taken off it), or its last one, before `pos` in `buf`.
+    fn put_two(buf: &mut [u8; 42], pos: &mut usize, m: &mut u64) {
+        let r = (*m % 100) as usize;
+        *m /= 100;
+        *pos -= 2;
+        buf[*pos] = PAIRS[2 * r];
+        buf[*pos + 1] = PAIRS[2 * r + 1];
+    }
+    fn put_one(buf: &mut [u8; 42], pos: &mut usize, m: &mut u64) {
+        *pos -= 1;
+        buf[*pos] = b'0' + (*m % 10) as u8;
+        *m /= 10;
+    }
+    // Sign, 20 integer digits, point, 20 decimals.
+    let mut buf = [0u8; 42];
+    let mut pos = buf.len();
+    for _ in 0..decimals / 2 {
+        put_two(&mut buf, &mut pos, &mut m);
+    }
+    if decimals % 2 == 1 {
+        put_one(&mut buf, &mut pos, &mut m);
+    }
+    if decimals > 0 {
+        pos -= 1;
+        buf[pos] = b'.';
+    }
+    // The integer part: at least one digit.
+    let point = pos;
+    while m >= 10 {
+        put_two(&mut buf, &mut pos, &mut m);
+    }
+    if m > 0 || pos == point {
+        put_one(&mut buf, &mut pos, &mut m);
+    }
+    if negative {
+        pos -= 1;
+        buf[pos] = b'-';
+    }
+    // Characters the compiler can see are ASCII (the mask) are pushed as bytes, without the
+    // encoding step (`str::from_utf8` on a few bytes would cost more than the whole number).
+    let text = &buf[pos..];
+    out.reserve(text.len());
+    for &b in text {
+        out.push(char::from(b & 0x7f));
+    }
+}
+
 /// Append `value` with exactly `decimals` digits after the point (no point for 0) and never
 /// a negative zero.
 pub fn write_fixed(value: f64, decimals: u8, out: &mut String) {
@@ -112,23 +172,57 @@ pub fn write_fixed(value: f64, decimals: u8, out: &mut String) {
 }
 
 /// [`write_fixed`], returning the number written as the NC parser reads it back (the
-/// nearest f64 to the text), without reading the text: below 2^53 units of the last
-/// digit, the integer and the power of ten are exact and their quotient is that f64.
+/// nearest f64 to the text), without reading the text.
 pub fn write_fixed_value(value: f64, decimals: u8, out: &mut String) -> f64 {
-    const POW10: [f64; 13] = [
-        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12,
-    ];
-    if let Some(n) = scaled(value, decimals)
-        && n.unsigned_abs() <= 1 << 53
-        && let Some(p) = POW10.get(usize::from(decimals))
-    {
-        write_scaled(i128::from(n), decimals, out);
-        let v = n.unsigned_abs() as f64 / p;
-        return if n < 0 { -v } else { v };
+    Rounded::new(value, decimals).write(out)
+}
+
+/// A value to be written with `decimals` digits after the point, its digits worked out once
+/// for both questions a pass asks of it: does a word print the same ([`same_text`]), and
+/// what is written instead ([`write_fixed_value`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Rounded {
+    value: f64,
+    decimals: u8,
+    scaled: Option<i64>,
+}
+
+impl Rounded {
+    pub fn new(value: f64, decimals: u8) -> Self {
+        Rounded {
+            value,
+            decimals,
+            scaled: scaled(value, decimals),
+        }
     }
-    let start = out.len();
-    write_fixed(value, decimals, out);
-    crate::nc::to_f64(&out.as_bytes()[start..])
+
+    /// Whether `other` prints the same: `same_text(other, value, decimals)`.
+    pub fn prints_as(&self, other: f64) -> bool {
+        match (scaled(other, self.decimals), self.scaled) {
+            (Some(x), Some(y)) => x == y,
+            _ => fixed(other, self.decimals) == fixed(self.value, self.decimals),
+        }
+    }
+
+    /// [`write_fixed_value`]: below 2^53 units of the last digit, the integer and the power
+    /// of ten are exact and their quotient is the f64 the text reads as.
+    pub fn write(&self, out: &mut String) -> f64 {
+        const POW10: [f64; 13] = [
+            1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12,
+        ];
+        if let Some(n) = self.scaled
+            && n.unsigned_abs() <= 1 << 53
+            && let Some(p) = POW10.get(usize::from(self.decimals))
+        {
+            // 2^53 has 16 digits, and at most 12 decimals get here.
+            write_small(n.unsigned_abs(), n < 0, usize::from(self.decimals), out);
+            let v = n.unsigned_abs() as f64 / p;
+            return if n < 0 { -v } else { v };
+        }
+        let start = out.len();
+        write_fixed(self.value, self.decimals, out);
+        crate::nc::to_f64(&out.as_bytes()[start..])
+    }
 }
 
 /// `value` with exactly `decimals` digits after the point.
@@ -141,6 +235,7 @@ pub fn fixed(value: f64, decimals: u8) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::strategy::{Just, Strategy};
 
     #[test]
     fn decimals_from_resolution() {
@@ -165,6 +260,19 @@ mod tests {
         assert_eq!(fixed(f64::NAN, 2), "NaN");
     }
 
+    /// `m · 10^-d` as text, the slow way.
+    fn scaled_text(m: i128, d: u8) -> String {
+        let digits = m.unsigned_abs().to_string();
+        let digits = format!("{digits:0>w$}", w = usize::from(d) + 1);
+        let (int, frac) = digits.split_at(digits.len() - usize::from(d));
+        let sign = if m < 0 { "-" } else { "" };
+        if d == 0 {
+            format!("{sign}{int}")
+        } else {
+            format!("{sign}{int}.{frac}")
+        }
+    }
+
     proptest::proptest! {
         #[test]
         fn fast_path_prints_what_std_prints(v in -1e6..1e6f64, d in 0u8..8) {
@@ -177,14 +285,24 @@ mod tests {
 
         #[test]
         fn scaled_integers_print_their_digits(m in proptest::num::i128::ANY, d in 0u8..45) {
-            let digits = m.unsigned_abs().to_string();
-            let digits = format!("{digits:0>w$}", w = usize::from(d) + 1);
-            let (int, frac) = digits.split_at(digits.len() - usize::from(d));
-            let sign = if m < 0 { "-" } else { "" };
-            let expected = if d == 0 { format!("{sign}{int}") } else { format!("{sign}{int}.{frac}") };
             let mut out = String::new();
             write_scaled(m, d, &mut out);
-            proptest::prop_assert_eq!(out, expected);
+            proptest::prop_assert_eq!(out, scaled_text(m, d));
+        }
+
+        #[test]
+        fn small_scaled_integers_print_their_digits(
+            m in proptest::prop_oneof![
+                proptest::num::i64::ANY.prop_map(i128::from),
+                -100_000_000i128..100_000_000,
+                Just(i128::from(u64::MAX)),
+                Just(-i128::from(u64::MAX)),
+            ],
+            d in 0u8..24,
+        ) {
+            let mut out = String::from("kept");
+            write_scaled(m, d, &mut out);
+            proptest::prop_assert_eq!(out, format!("kept{}", scaled_text(m, d)));
         }
 
         #[test]
@@ -200,6 +318,7 @@ mod tests {
         fn same_text_agrees_with_strings(a in -1e4..1e4f64, delta in -1e-3..1e-3f64, d in 0u8..6) {
             let b = a + delta;
             proptest::prop_assert_eq!(same_text(a, b, d), fixed(a, d) == fixed(b, d));
+            proptest::prop_assert_eq!(Rounded::new(b, d).prints_as(a), fixed(a, d) == fixed(b, d));
         }
     }
 }

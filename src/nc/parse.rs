@@ -3,7 +3,7 @@
 //! Two layers, both lossless:
 //!
 //! * [`lines`] splits a program into [`Line`]s (content + ending) without allocating; the
-//!   newline search is nom's `FindSubstring`, which is `memchr` underneath.
+//!   newline search is `memchr`.
 //! * [`parse_line`] cuts one line's content into [`Token`]s that cover every byte, in order.
 //!   It never fails: bytes that are nothing else become [`TokenKind::Other`].
 //!
@@ -43,7 +43,7 @@ use nom::character::complete::{char, digit0, digit1, one_of, satisfy};
 use nom::combinator::{consumed, not, opt, peek, recognize, rest, verify};
 use nom::multi::{many0_count, many1_count};
 use nom::sequence::{preceded, terminated};
-use nom::{FindSubstring, IResult, Parser};
+use nom::{IResult, Parser};
 
 use super::{Line, Token, TokenKind, Value, Word};
 
@@ -77,7 +77,7 @@ impl<'a> Iterator for Lines<'a> {
         let offset = self.pos;
         let rest = self.src.get(offset..).filter(|r| !r.is_empty())?;
         self.number += 1;
-        let (content, ending) = match rest.find_substring(&b"\n"[..]) {
+        let (content, ending) = match memchr::memchr(b'\n', rest) {
             Some(nl) => {
                 let cut = if nl > 0 && rest[nl - 1] == b'\r' {
                     nl - 1
@@ -107,10 +107,37 @@ impl std::iter::FusedIterator for Lines<'_> {}
 /// bytes that are nothing else become [`TokenKind::Other`]. The tokens are contiguous and
 /// cover `content` exactly, so concatenating `content[token.span]` gives the line back.
 pub fn parse_line(content: &[u8], out: &mut Vec<Token>) {
+    tokenize::<true>(content, out);
+}
+
+/// [`parse_line`]; `FAST`: words of the usual shape ([`plain_word`]) and single spaces are
+/// taken at once (without it, every token takes the general way, which the tests compare
+/// it with).
+fn tokenize<const FAST: bool>(content: &[u8], out: &mut Vec<Token>) {
     out.clear();
     let mut start = 0;
     let mut block_start = true;
     while start < content.len() {
+        if FAST {
+            if let Some((end, word)) = plain_word(content, start) {
+                out.push(Token {
+                    kind: TokenKind::Word(word),
+                    span: start..end,
+                });
+                block_start = false;
+                start = end;
+                continue;
+            }
+            // The single space between words.
+            if content[start] == b' ' && !content.get(start + 1).is_some_and(|&b| is_space(b)) {
+                out.push(Token {
+                    kind: TokenKind::Space,
+                    span: start..start + 1,
+                });
+                start += 1;
+                continue;
+            }
+        }
         let input = &content[start..];
         let (len, kind) = token(input, block_start);
         // Every branch consumes at least one byte; guard anyway so that a bug can never
@@ -155,7 +182,10 @@ fn token(i: &[u8], block_start: bool) -> (usize, TokenKind) {
     };
     let taken = |r: &[u8]| i.len() - r.len();
     match first {
-        b' ' | b'\t' | b'\r' => (taken(spaces(i)), TokenKind::Space),
+        b' ' | b'\t' | b'\r' => (
+            1 + i[1..].iter().take_while(|&&b| is_space(b)).count(),
+            TokenKind::Space,
+        ),
         b'(' | b';' => (taken(comment(i)), TokenKind::Comment),
         b'%' => (1, TokenKind::Percent),
         b'/' if block_start => (taken(block_delete(i)), TokenKind::BlockDelete),
@@ -193,10 +223,6 @@ fn after<'a, O>(r: PResult<'a, O>, i: &'a [u8]) -> &'a [u8] {
 
 fn is_space(b: u8) -> bool {
     b == b' ' || b == b'\t' || b == b'\r'
-}
-
-fn spaces(i: &[u8]) -> &[u8] {
-    after(take_while1(is_space).parse(i), i)
 }
 
 /// `( ... )`, closing at the first `)` or running to the end of the line; `;` to the end.
@@ -305,6 +331,73 @@ fn function(i: &[u8]) -> PResult<'_, &[u8]> {
     };
     let n = i.len() - r.len();
     Ok((r, &i[..n]))
+}
+
+/// The usual word, a letter glued to a plain number that [`plain_decimal`] reads (`X-12.5`,
+/// `g1`, `N0010`), at `start` of `content`, in one pass over its bytes: its end and the
+/// word, as the general way ([`token`], [`word`], [`to_f64`]) makes it. `None` for anything
+/// else, left to the general way.
+#[inline]
+fn plain_word(content: &[u8], start: usize) -> Option<(usize, Word)> {
+    const POW10: [f64; 23] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+        1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+    ];
+    let letter = *content.get(start)?;
+    if !letter.is_ascii_alphabetic() {
+        return None;
+    }
+    let value_start = start + 1;
+    let mut pos = value_start;
+    let negative = match content.get(pos) {
+        Some(b'-') => true,
+        Some(b'+') => false,
+        _ => {
+            pos -= 1;
+            false
+        }
+    };
+    pos += 1;
+    // Up to 15 digits (below 10^15 < 2^53, so exact); longer numbers take the general way.
+    let mut mantissa: u64 = 0;
+    let mut digits = |pos: &mut usize| {
+        let mut n = 0;
+        for &b in &content[*pos..] {
+            let d = b.wrapping_sub(b'0');
+            if d > 9 {
+                break;
+            }
+            mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(d));
+            n += 1;
+        }
+        *pos += n;
+        n
+    };
+    let whole = digits(&mut pos);
+    let mut frac = 0;
+    if content.get(pos) == Some(&b'.') {
+        pos += 1;
+        frac = digits(&mut pos);
+        if whole == 0 && frac == 0 {
+            return None;
+        }
+    } else if whole == 0 {
+        return None;
+    }
+    if whole + frac > 15 {
+        return None;
+    }
+    let value = mantissa as f64 / POW10.get(frac)?;
+    let word = Word {
+        letter: letter.to_ascii_uppercase(),
+        lowercase: letter.is_ascii_lowercase(),
+        value: Value::Number {
+            value: if negative { -value } else { value },
+            decimals: frac as u8,
+        },
+        value_span: value_start..pos,
+    };
+    Some((pos, word))
 }
 
 /// What [`value`] reads from a plain number (`[+-]?(digits[.digits?]|.digits)`, the usual
@@ -458,6 +551,34 @@ mod tests {
             let std: f64 = text.trim_start_matches('+').parse().unwrap();
             let ours = to_f64(text.as_bytes());
             proptest::prop_assert_eq!(ours.to_bits(), std.to_bits(), "{}", text);
+        }
+    }
+
+    /// Tokens with their numbers' bits (`-0.0` is not `0.0` here).
+    fn exactly(tokens: &[Token]) -> Vec<String> {
+        tokens.iter().map(|t| format!("{t:?}")).collect()
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn the_fast_path_reads_as_the_general_way(
+            line in proptest::collection::vec(
+                proptest::prop_oneof![
+                    // Words as programs write them, with odd and huge numbers.
+                    "[XYZABCGNFxyzg][-+]?[0-9]{0,20}(\\.[0-9]{0,25})?",
+                    "[XYZ] ?[-+]?[0-9]{1,4}\\.?[0-9]{0,4}",
+                    // Anything else a line may hold.
+                    "[-+.0-9a-zA-Z #<>\\[\\]();/%=\t\r@^]{1,6}",
+                    "\\PC{1,3}",
+                ],
+                0..10,
+            ),
+        ) {
+            let line = line.concat();
+            let (mut fast, mut general) = (Vec::new(), Vec::new());
+            tokenize::<true>(line.as_bytes(), &mut fast);
+            tokenize::<false>(line.as_bytes(), &mut general);
+            proptest::prop_assert_eq!(exactly(&fast), exactly(&general), "{:?}", line);
         }
     }
 
