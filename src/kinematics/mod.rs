@@ -270,16 +270,6 @@ impl Kinematics {
         self.jacobian_at(model, q, length, &self.angles(q))
     }
 
-    pub(crate) fn jacobian_at(
-        &self,
-        model: Model,
-        q: &[f64],
-        length: f64,
-        angles: &Angles,
-    ) -> (Pose, Jacobian) {
-        self.evaluate(model, q, length, angles)
-    }
-
     /// The pose, and of its Jacobian only the rotary axes' directions (`axis_dir`), unless
     /// the poses are turning poses, which need the whole.
     pub(crate) fn axes_at(
@@ -290,7 +280,7 @@ impl Kinematics {
         angles: &Angles,
     ) -> (Pose, Jacobian) {
         if self.turning.is_some() {
-            return self.evaluate(model, q, length, angles);
+            return self.jacobian_at(model, q, length, angles);
         }
         let (c, beyond) = self.carry::<true>(model, q, length, angles);
         let jac = Jacobian {
@@ -303,7 +293,14 @@ impl Kinematics {
         (Pose { p: c.x, o: c.d }, jac)
     }
 
-    fn evaluate(&self, model: Model, q: &[f64], length: f64, angles: &Angles) -> (Pose, Jacobian) {
+    /// [`Kinematics::pose_and_jacobian`] with the rotary axes' sines and cosines given.
+    pub(crate) fn jacobian_at(
+        &self,
+        model: Model,
+        q: &[f64],
+        length: f64,
+        angles: &Angles,
+    ) -> (Pose, Jacobian) {
         let chains = self.chains(model);
         let mut beyond = false;
         // Each variable moves one joint of one chain: one table of motions serves both.

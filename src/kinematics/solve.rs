@@ -187,9 +187,9 @@ impl Kinematics {
             let rp = pose.p - target.p;
             let rd = [b1.dot(&pose.o), b2.dot(&pose.o)];
             let (ep, ea) = (rp.norm(), pose.o.cross(&target.o).norm());
+            let facing = pose.o.dot(&target.o);
             // atan(y/x) ≤ y/x: within the angle tolerance without an atan2.
-            let done = ep <= options.position_tolerance
-                && ea <= options.angle_tolerance * pose.o.dot(&target.o);
+            let done = ep <= options.position_tolerance && ea <= options.angle_tolerance * facing;
             if done || iterations >= options.max_iterations {
                 break;
             }
@@ -204,9 +204,11 @@ impl Kinematics {
             // or so): when ten times what the last step did brings this one below the
             // tolerances, the step is taken without evaluating the pose it lands on. It
             // saves one pose of four; the pose the machine is told is evaluated anyway.
+            // (Only facing the target: a sine is small at a half turn too.)
             if let Some((lp, la)) = last
                 && lp > 0.0
                 && la > 0.0
+                && facing > 0.5
             {
                 let ratio = 10.0 * (ep / lp).max(ea / la);
                 if ratio < 1e-2
