@@ -71,6 +71,18 @@ pub struct Jacobian {
     pub beyond: bool,
 }
 
+impl Jacobian {
+    fn zero(n: usize, beyond: bool) -> Self {
+        Jacobian {
+            n,
+            dp: [Vector3::zeros(); MAX_AXES],
+            do_: [Vector3::zeros(); MAX_AXES],
+            axis_dir: [Vector3::zeros(); MAX_AXES],
+            beyond,
+        }
+    }
+}
+
 #[derive(Debug, Clone)]
 struct Chains {
     workpiece: Vec<Joint>,
@@ -284,11 +296,8 @@ impl Kinematics {
         }
         let (c, beyond) = self.carry::<true>(model, q, length, angles);
         let jac = Jacobian {
-            n: self.axes.len(),
-            dp: [Vector3::zeros(); MAX_AXES],
-            do_: [Vector3::zeros(); MAX_AXES],
             axis_dir: c.axes,
-            beyond,
+            ..Jacobian::zero(self.len(), beyond)
         };
         (Pose { p: c.x, o: c.d }, jac)
     }
@@ -312,13 +321,7 @@ impl Kinematics {
         let ow = t.r.column(2);
         let p = w.apply_inverse(&pw);
         let o = w.r.tr_mul(&ow);
-        let mut jac = Jacobian {
-            n: self.axes.len(),
-            dp: [Vector3::zeros(); MAX_AXES],
-            do_: [Vector3::zeros(); MAX_AXES],
-            axis_dir: [Vector3::zeros(); MAX_AXES],
-            beyond,
-        };
+        let mut jac = Jacobian::zero(self.len(), beyond);
         // The tool's motion moves the tip; the workpiece's moves the part the other way.
         let mut column = |k: usize, sign: f64| {
             let tw = &twists[k];

@@ -76,8 +76,11 @@ impl Kinematics {
         for &s in samples {
             lerp(&qa[..n], &qb[..n], s, &mut qn);
             lerp(&ca[..n], &cb[..n], s, &mut qc);
-            let (target, jac) = self.pose_and_jacobian(Model::Nominal, &qn[..n], length);
-            let (actual, _) = self.pose(Model::Actual, &qc[..n], length);
+            // Only the axis directions of the Jacobian are needed (the singular test), and
+            // the real pose is near the nominal one: its sines and cosines by addition.
+            let angles = self.angles(&qn[..n]);
+            let (target, jac) = self.axes_at(Model::Nominal, &qn[..n], length, &angles);
+            let (actual, _) = self.pose_near(Model::Actual, &qc[..n], length, &angles);
             let dp = (actual.p - target.p).norm();
             if dp > dev.position {
                 dev.position = dp;
