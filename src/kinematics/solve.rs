@@ -42,9 +42,7 @@ pub struct Solution {
     /// Axis values, one per variable (first `n` entries used).
     pub q: [f64; MAX_AXES],
     pub n: usize,
-    /// Remaining tip distance (mm) and direction angle (rad) to the target: evaluated, or
-    /// when the last Newton step was taken unevaluated (its predecessor's contraction put
-    /// it ten times below the tolerances), that estimate.
+    /// Remaining tip distance (mm) and direction angle (rad) to the target.
     pub position_residual: f64,
     pub direction_residual: f64,
     /// Tip distance (mm) and direction angle (rad) at the start values: the error
@@ -179,10 +177,6 @@ impl Kinematics {
         let (start_position_error, start_direction_error) = pose.deviation(target);
         let mut iterations = 0;
         let mut near = *angles;
-        // The residuals before the last step, and the estimate of those after the final
-        // step when it is not evaluated (below).
-        let mut last: Option<(f64, f64)> = None;
-        let mut estimate = None;
         loop {
             let rp = pose.p - target.p;
             let rd = [b1.dot(&pose.o), b2.dot(&pose.o)];
@@ -200,26 +194,6 @@ impl Kinematics {
                 q[k] -= step[i];
                 biggest = biggest.max(step[i].abs());
             }
-            // Each step shrinks the residual by about the same factor (the chord's, 1e-4
-            // or so): when ten times what the last step did brings this one below the
-            // tolerances, the step is taken without evaluating the pose it lands on. It
-            // saves one pose of four; the pose the machine is told is evaluated anyway.
-            // (Only facing the target: a sine is small at a half turn too.)
-            if let Some((lp, la)) = last
-                && lp > 0.0
-                && la > 0.0
-                && facing > 0.5
-            {
-                let ratio = 10.0 * (ep / lp).max(ea / la);
-                if ratio < 1e-2
-                    && ep * ratio <= options.position_tolerance
-                    && ea * ratio <= options.angle_tolerance
-                {
-                    estimate = Some((ep * ratio, ea * ratio));
-                    break;
-                }
-            }
-            last = Some((ep, ea));
             angles.near_into(&q[..n], &mut near);
             if iterations % 4 == 0 {
                 (pose, jac) = self.jacobian_at(model, &q[..n], length, &near);
@@ -232,8 +206,7 @@ impl Kinematics {
                 break;
             }
         }
-        let (position_residual, direction_residual) =
-            estimate.unwrap_or_else(|| pose.deviation(target));
+        let (position_residual, direction_residual) = pose.deviation(target);
         Solution {
             q,
             n,
