@@ -266,10 +266,10 @@ impl Pass<'_> {
                 return None;
             }
             let (target, jac) = nominal_at(closest);
-            let singular = self
-                .kin
-                .singular_axes(&target, &jac, self.options.solve.singular_angle)
-                & !self.hold;
+            let singular =
+                self.kin
+                    .singular_axes(&target, &jac.axis_dir, self.options.solve.singular_angle)
+                    & !self.hold;
             if singular != end_solution.singular {
                 // A rotary axis enters or leaves the singular cone along the arc: its
                 // correction jumps there, which the straight pieces deal with.

@@ -388,53 +388,73 @@ pub(super) fn walk<const TWIST: bool>(
 }
 
 /// The vectors a pose evaluation carries through the joints: the tip `x`, the tool
-/// direction `d` and, with `AXES`, the directions of the rotary axes met so far (entry per
-/// variable, bit k of `carried` set once variable k's is in).
-pub(super) struct Carried {
+/// direction `d` and, when asked for (`axes`), the directions of the rotary axes met so
+/// far. A plain pose carries only the first two: no array of directions to set up or copy.
+pub(super) struct Carried<'a, 'b> {
     pub x: Vector3<f64>,
     pub d: Vector3<f64>,
-    pub axes: [Vector3<f64>; MAX_AXES],
+    pub axes: Option<&'a mut CarriedAxes<'b>>,
+}
+
+/// The rotary axes' directions a pose evaluation carries: entry per variable, bit k of
+/// `carried` set once variable k's is in.
+pub(super) struct CarriedAxes<'a> {
+    pub dirs: &'a mut [Vector3<f64>; MAX_AXES],
     pub carried: u32,
 }
 
-impl Carried {
+impl<'a> CarriedAxes<'a> {
+    /// Into `dirs`, which end with zeros for the linear axes.
+    pub fn new(dirs: &'a mut [Vector3<f64>; MAX_AXES]) -> Self {
+        *dirs = [Vector3::zeros(); MAX_AXES];
+        CarriedAxes { dirs, carried: 0 }
+    }
+
     #[inline]
-    fn rotate_axes(&mut self, f: impl Fn(&Vector3<f64>) -> Vector3<f64>) {
+    fn rotate(&mut self, f: impl Fn(&Vector3<f64>) -> Vector3<f64>) {
         let mut bits = self.carried;
         while bits != 0 {
             let k = bits.trailing_zeros() as usize;
             bits &= bits - 1;
-            self.axes[k] = f(&self.axes[k]);
+            self.dirs[k] = f(&self.dirs[k]);
         }
+    }
+
+    #[inline]
+    fn put(&mut self, var: usize, dir: Vector3<f64>) {
+        self.dirs[var] = dir;
+        self.carried |= 1 << var;
     }
 }
 
 /// The vectors given in the chain's end frame, carried out to its base frame: the joints
 /// applied from the last to the first. Cheaper than forming the chain's transform when
-/// only a few vectors are wanted.
+/// only a few vectors are wanted. `AXES`: `c.axes` is given and gets the rotary axes.
 #[inline]
 pub(super) fn carry_out<const AXES: bool>(
     joints: &[Joint],
     q: &[f64],
     angles: &Angles,
     beyond: &mut bool,
-    c: &mut Carried,
+    c: &mut Carried<'_, '_>,
 ) {
     for j in joints.iter().rev() {
         let (jt, rotates, twist) = j.eval::<AXES>(q[j.var], angles.get(j.var), beyond);
         if rotates {
             c.x = jt.r * c.x + jt.t;
             c.d = jt.r * c.d;
-            if AXES {
-                c.rotate_axes(|a| jt.r * *a);
+            if AXES && let Some(axes) = c.axes.as_deref_mut() {
+                axes.rotate(|a| jt.r * *a);
             }
         } else {
             c.x += jt.t;
         }
-        if AXES && j.kind == AxisKind::Rotary {
+        if AXES
+            && j.kind == AxisKind::Rotary
+            && let Some(axes) = c.axes.as_deref_mut()
+        {
             // In the joint's parent frame, as the joints before it will carry it.
-            c.axes[j.var] = twist.axis;
-            c.carried |= 1 << j.var;
+            axes.put(j.var, twist.axis);
         }
     }
 }
@@ -447,23 +467,25 @@ pub(super) fn carry_in<const AXES: bool>(
     q: &[f64],
     angles: &Angles,
     beyond: &mut bool,
-    c: &mut Carried,
+    c: &mut Carried<'_, '_>,
 ) {
     for j in joints {
         let (jt, rotates, _) = j.eval::<false>(q[j.var], angles.get(j.var), beyond);
         if rotates {
             c.x = jt.r.tr_mul(&(c.x - jt.t));
             c.d = jt.r.tr_mul(&c.d);
-            if AXES {
-                c.rotate_axes(|a| jt.r.tr_mul(a));
+            if AXES && let Some(axes) = c.axes.as_deref_mut() {
+                axes.rotate(|a| jt.r.tr_mul(a));
             }
         } else {
             c.x -= jt.t;
         }
-        if AXES && j.kind == AxisKind::Rotary {
+        if AXES
+            && j.kind == AxisKind::Rotary
+            && let Some(axes) = c.axes.as_deref_mut()
+        {
             // Its own turn leaves the axis where it is: ã in the joint's frame.
-            c.axes[j.var] = j.dir;
-            c.carried |= 1 << j.var;
+            axes.put(j.var, j.dir);
         }
     }
 }

@@ -56,6 +56,10 @@ pub enum Model {
     Actual,
 }
 
+/// The rotary axes' directions in the workpiece frame, entry per variable (zero for linear
+/// axes).
+pub type AxisDirs = [Vector3<f64>; MAX_AXES];
+
 /// The derivative of the pose with respect to each axis (per mm or per degree), in the
 /// workpiece frame, and for rotary axes the direction of their line in that frame.
 #[derive(Debug, Clone, Copy)]
@@ -250,30 +254,30 @@ impl Kinematics {
             let (pose, jac) = self.jacobian_at(model, q, length, angles);
             return (pose, jac.beyond);
         }
-        let (c, beyond) = self.carry::<false>(model, q, length, angles);
-        (Pose { p: c.x, o: c.d }, beyond)
+        self.carry::<false>(model, q, length, angles, None)
     }
 
     /// p = W⁻¹·T·t and o = R(W⁻¹·T)·u, applied joint by joint to t and u (and with `AXES`
-    /// the rotary axes' directions, to the workpiece frame).
+    /// the rotary axes' directions, into `axes`, to the workpiece frame).
+    #[inline]
     fn carry<const AXES: bool>(
         &self,
         model: Model,
         q: &[f64],
         length: f64,
         angles: &Angles,
-    ) -> (chain::Carried, bool) {
+        axes: Option<&mut chain::CarriedAxes<'_>>,
+    ) -> (Pose, bool) {
         let chains = self.chains(model);
         let mut beyond = false;
         let mut c = chain::Carried {
             x: self.tip(length),
             d: Vector3::z(),
-            axes: [Vector3::zeros(); MAX_AXES],
-            carried: 0,
+            axes,
         };
         chain::carry_out::<AXES>(&chains.tool, q, angles, &mut beyond, &mut c);
         chain::carry_in::<AXES>(&chains.workpiece, q, angles, &mut beyond, &mut c);
-        (c, beyond)
+        (Pose { p: c.x, o: c.d }, beyond)
     }
 
     /// The pose and its Jacobian at `q`. The Jacobian includes the error motions' change
@@ -282,24 +286,24 @@ impl Kinematics {
         self.jacobian_at(model, q, length, &self.angles(q))
     }
 
-    /// The pose, and of its Jacobian only the rotary axes' directions (`axis_dir`), unless
-    /// the poses are turning poses, which need the whole.
+    /// The pose, and of its Jacobian only the rotary axes' directions (entry per variable,
+    /// zero for linear axes), written into `dirs`. The flag: an error table was read
+    /// beyond its ends.
     pub(crate) fn axes_at(
         &self,
         model: Model,
         q: &[f64],
         length: f64,
         angles: &Angles,
-    ) -> (Pose, Jacobian) {
+        dirs: &mut AxisDirs,
+    ) -> (Pose, bool) {
         if self.turning.is_some() {
-            return self.jacobian_at(model, q, length, angles);
+            let (pose, jac) = self.jacobian_at(model, q, length, angles);
+            *dirs = jac.axis_dir;
+            return (pose, jac.beyond);
         }
-        let (c, beyond) = self.carry::<true>(model, q, length, angles);
-        let jac = Jacobian {
-            axis_dir: c.axes,
-            ..Jacobian::zero(self.len(), beyond)
-        };
-        (Pose { p: c.x, o: c.d }, jac)
+        let mut axes = chain::CarriedAxes::new(dirs);
+        self.carry::<true>(model, q, length, angles, Some(&mut axes))
     }
 
     /// [`Kinematics::pose_and_jacobian`] with the rotary axes' sines and cosines given.
@@ -478,14 +482,15 @@ mod tests {
                 let q = axis_values(&machine, &kin, &u);
                 let angles = kin.angles(&q);
                 for model in [Model::Actual, Model::Nominal] {
-                    let (pose, axes) = kin.axes_at(model, &q, 30.0, &angles);
+                    let mut dirs = [Vector3::zeros(); MAX_AXES];
+                    let (pose, beyond) = kin.axes_at(model, &q, 30.0, &angles, &mut dirs);
                     let (want, jac) = kin.pose_and_jacobian(model, &q, 30.0);
                     let (dp, da) = pose.deviation(&want);
                     proptest::prop_assert!(dp < 1e-11 && da < 1e-14);
-                    proptest::prop_assert_eq!(axes.beyond, jac.beyond);
+                    proptest::prop_assert_eq!(beyond, jac.beyond);
                     for k in 0..kin.len() {
-                        let off = (axes.axis_dir[k] - jac.axis_dir[k]).norm();
-                        proptest::prop_assert!(off < 1e-14, "{} {model:?} var {k}: {:?} {:?}", MACHINES[m], axes.axis_dir[k], jac.axis_dir[k]);
+                        let off = (dirs[k] - jac.axis_dir[k]).norm();
+                        proptest::prop_assert!(off < 1e-14, "{} {model:?} var {k}: {:?} {:?}", MACHINES[m], dirs[k], jac.axis_dir[k]);
                     }
                 }
             }

@@ -73,13 +73,14 @@ impl Kinematics {
         let n = self.len();
         let mut dev = Deviation::default();
         let (mut qn, mut qc) = ([0.0; MAX_AXES], [0.0; MAX_AXES]);
+        let mut dirs = [nalgebra::Vector3::zeros(); MAX_AXES];
         for &s in samples {
             lerp(&qa[..n], &qb[..n], s, &mut qn);
             lerp(&ca[..n], &cb[..n], s, &mut qc);
             // Only the axis directions of the Jacobian are needed (the singular test), and
             // the real pose is near the nominal one: its sines and cosines by addition.
             let angles = self.angles(&qn[..n]);
-            let (target, jac) = self.axes_at(Model::Nominal, &qn[..n], length, &angles);
+            let (target, _) = self.axes_at(Model::Nominal, &qn[..n], length, &angles, &mut dirs);
             let (actual, _) = self.pose_near(Model::Actual, &qc[..n], length, &angles);
             let dp = (actual.p - target.p).norm();
             if dp > dev.position {
@@ -88,7 +89,7 @@ impl Kinematics {
             }
             // At a singular pose the direction is not held to the tolerance (the free
             // axis is never swung to chase it).
-            if self.singular_axes(&target, &jac, options.singular_angle) == 0 {
+            if self.singular_axes(&target, &dirs, options.singular_angle) == 0 {
                 let dd = angle_between(&actual.o, &target.o);
                 if dd > dev.direction {
                     dev.direction = dd;
@@ -174,8 +175,8 @@ impl Kinematics {
             // around the edge. Swing it across in steps with the tip kept on the path.
             let (p0, j0) = self.pose_and_jacobian(Model::Nominal, &n0[..n], length);
             let (p1, j1) = self.pose_and_jacobian(Model::Nominal, &n1[..n], length);
-            let switching = (self.singular_axes(&p0, &j0, options.singular_angle)
-                ^ self.singular_axes(&p1, &j1, options.singular_angle))
+            let switching = (self.singular_axes(&p0, &j0.axis_dir, options.singular_angle)
+                ^ self.singular_axes(&p1, &j1.axis_dir, options.singular_angle))
                 & !hold;
             if switching != 0 {
                 self.transition(

@@ -7,7 +7,7 @@
 //! it is held at its nominal value instead of being swung to chase the few micro-radians
 //! of direction error it cannot fix anyway.
 
-use super::{Angles, Jacobian, Kinematics, MAX_AXES, Model, Pose};
+use super::{Angles, AxisDirs, Jacobian, Kinematics, MAX_AXES, Model, Pose};
 use crate::model::AxisKind;
 use nalgebra::{DMatrix, SMatrix, Vector3, Vector5};
 
@@ -35,6 +35,10 @@ impl Default for SolveOptions {
         }
     }
 }
+
+/// A step that leaves more than this share of the residual (position or direction) makes
+/// the next one take a fresh Jacobian.
+const SLOW: f64 = 0.25;
 
 /// The result of a solve.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -97,11 +101,12 @@ impl Kinematics {
         // real machine's axis lines are off by up to a few hundred micro-radians, which
         // would move the edge of the singular cone by that much.
         let angles = self.angles(q);
-        let (target, nominal) = self.axes_at(Model::Nominal, q, length, &angles);
-        let singular = self.singular_axes(&target, &nominal, options.singular_angle) & !hold;
+        let mut dirs = [Vector3::zeros(); MAX_AXES];
+        let (target, _) = self.axes_at(Model::Nominal, q, length, &angles, &mut dirs);
+        let singular = self.singular_axes(&target, &dirs, options.singular_angle) & !hold;
         // Newton's method with the real machine's Jacobian (error tables' slopes included)
         // converges quadratically: from tens of microns, two steps reach 1e-10 mm.
-        let first = self.jacobian_at(Model::Actual, q, length, &angles);
+        let (pose, jac) = self.jacobian_at(Model::Actual, q, length, &angles);
         let mut sol = self.solve_from(
             Model::Actual,
             &target,
@@ -109,7 +114,8 @@ impl Kinematics {
             length,
             hold | singular,
             options,
-            first,
+            pose,
+            &jac,
             &angles,
         );
         sol.singular = singular;
@@ -117,12 +123,12 @@ impl Kinematics {
     }
 
     /// Rotary variables whose axis line lies within `limit` (rad) of the tool direction.
-    pub fn singular_axes(&self, pose: &Pose, jac: &Jacobian, limit: f64) -> u32 {
+    pub fn singular_axes(&self, pose: &Pose, dirs: &AxisDirs, limit: f64) -> u32 {
         // Within `limit` of the line, either way: |cos| above cos(limit) (unit vectors).
         let cos_limit = limit.cos();
         let mut held = 0;
         for k in 0..self.len() {
-            if self.kind(k) == AxisKind::Rotary && jac.axis_dir[k].dot(&pose.o).abs() > cos_limit {
+            if self.kind(k) == AxisKind::Rotary && dirs[k].dot(&pose.o).abs() > cos_limit {
                 held |= 1 << k;
             }
         }
@@ -133,7 +139,7 @@ impl Kinematics {
     /// variables whose bits are set in `held`.
     ///
     /// The Jacobian is taken once at the start and reused (the pose changes by microns, so
-    /// it hardly changes); it is refreshed only if the iteration drags on.
+    /// it hardly changes); it is taken again only after a step that fell short ([`SLOW`]).
     pub fn solve(
         &self,
         model: Model,
@@ -144,8 +150,10 @@ impl Kinematics {
         options: &SolveOptions,
     ) -> Solution {
         let angles = self.angles(start);
-        let first = self.jacobian_at(model, &start[..self.len()], length, &angles);
-        self.solve_from(model, target, start, length, held, options, first, &angles)
+        let (pose, jac) = self.jacobian_at(model, &start[..self.len()], length, &angles);
+        self.solve_from(
+            model, target, start, length, held, options, pose, &jac, &angles,
+        )
     }
 
     /// [`Kinematics::solve`] with the pose and Jacobian at `start` already evaluated.
@@ -158,7 +166,8 @@ impl Kinematics {
         length: f64,
         held: u32,
         options: &SolveOptions,
-        (mut pose, mut jac): (Pose, Jacobian),
+        mut pose: Pose,
+        jac: &Jacobian,
         angles: &Angles,
     ) -> Solution {
         let n = self.len();
@@ -173,10 +182,12 @@ impl Kinematics {
         }
         let free = &free[..m];
         let mut beyond = jac.beyond;
-        let mut map = step_map(&jac, free, &b1, &b2);
+        let mut map = step_map(jac, free, &b1, &b2);
         let (start_position_error, start_direction_error) = pose.deviation(target);
         let mut iterations = 0;
         let mut near = *angles;
+        // The residual before the last step, to see how well the Jacobian still serves.
+        let mut last = (f64::INFINITY, f64::INFINITY);
         loop {
             let rp = pose.p - target.p;
             let rd = [b1.dot(&pose.o), b2.dot(&pose.o)];
@@ -187,6 +198,12 @@ impl Kinematics {
             if done || iterations >= options.max_iterations {
                 break;
             }
+            // The Jacobian taken at the start leaves about a thousandth of the residual a
+            // step (the axes move by the correction, hundreds of micro-radians, and it
+            // with them): it is taken again only where a step fell well short of that.
+            let slow = (ep > options.position_tolerance && ep > SLOW * last.0)
+                || (ea > options.angle_tolerance && ea > SLOW * last.1);
+            last = (ep, ea);
             iterations += 1;
             let step = map.step(&[rp.x, rp.y, rp.z, rd[0], rd[1]]);
             let mut biggest: f64 = 0.0;
@@ -195,7 +212,8 @@ impl Kinematics {
                 biggest = biggest.max(step[i].abs());
             }
             angles.near_into(&q[..n], &mut near);
-            if iterations % 4 == 0 {
+            if slow {
+                let jac;
                 (pose, jac) = self.jacobian_at(model, &q[..n], length, &near);
                 beyond = jac.beyond;
                 map = step_map(&jac, free, &b1, &b2);
@@ -388,7 +406,7 @@ impl Kinematics {
         options: &SolveOptions,
     ) -> Option<Solution> {
         let (_, jac) = self.pose_and_jacobian(model, guess, length);
-        let held = self.singular_axes(target, &jac, options.singular_angle);
+        let held = self.singular_axes(target, &jac.axis_dir, options.singular_angle);
         let sol = self.solve(model, target, guess, length, held, options);
         let direction_ok = held != 0 || sol.direction_residual < 1e-9;
         (sol.position_residual < 1e-9 && direction_ok).then_some(sol)
