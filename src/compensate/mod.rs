@@ -198,6 +198,8 @@ struct State {
     presolved: presolve::Presolved,
     /// Emptied texts of earlier edits, to write new ones in without allocating.
     spare_texts: Vec<String>,
+    /// The pieces of the move being checked for splitting, reused from block to block.
+    pieces: Vec<crate::kinematics::path::Piece>,
 }
 
 impl<'m> Compensator<'m> {
@@ -361,6 +363,7 @@ impl<'m> Compensator<'m> {
             corrected_line: [0; MAX_AXES],
             presolved: presolve::Presolved::default(),
             spare_texts: Vec::new(),
+            pieces: Vec::new(),
         };
         for v in 0..first.kin.len() {
             state.decimals[v] = first.res_decimals(v, Unit::MM);

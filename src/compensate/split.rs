@@ -11,7 +11,7 @@
 use super::exact::{self, Position};
 use super::{Edit, Pass, State, Summary, axis_order};
 use crate::kinematics::MAX_AXES;
-use crate::kinematics::path::PathTolerance;
+use crate::kinematics::path::{PathTolerance, Piece};
 use crate::nc::number::{same_text, write_fixed};
 use crate::nc::{self, Token, TokenKind, Value};
 use std::fmt::Write;
@@ -35,17 +35,34 @@ impl Pass<'_> {
         summary: &mut Summary,
     ) {
         let n = self.kin.len();
-        let pieces = self.kin.subdivide(
+        // The pass's list of pieces, taken while `state` changes below and given back.
+        let mut pieces = std::mem::take(&mut state.pieces);
+        self.kin.subdivide_into(
             (&previous[..n], &state.nominal[..n]),
             (&state.emitted[..n], &end[..n]),
             state.length,
             hold,
             tolerance,
             &self.options.solve,
+            &mut pieces,
         );
-        if pieces.len() < 2 {
-            return;
+        if pieces.len() >= 2 {
+            self.insert_pieces(line, tokens, &pieces, state, edits, summary);
         }
+        state.pieces = pieces;
+    }
+
+    /// The blocks of a split move before the line (see [`Pass::split_move`]).
+    fn insert_pieces(
+        &self,
+        line: &nc::Line<'_>,
+        tokens: &[Token],
+        pieces: &[Piece],
+        state: &mut State,
+        edits: &mut Vec<Edit>,
+        summary: &mut Summary,
+    ) {
+        let n = self.kin.len();
         // Words that would run twice or at the wrong time (tool changes, M functions) keep
         // the block whole, and so does G93 without an F to share out.
         let mut f_word = None;

@@ -488,9 +488,9 @@ mod tests {
                     let (dp, da) = pose.deviation(&want);
                     proptest::prop_assert!(dp < 1e-11 && da < 1e-14);
                     proptest::prop_assert_eq!(beyond, jac.beyond);
-                    for k in 0..kin.len() {
-                        let off = (dirs[k] - jac.axis_dir[k]).norm();
-                        proptest::prop_assert!(off < 1e-14, "{} {model:?} var {k}: {:?} {:?}", MACHINES[m], dirs[k], jac.axis_dir[k]);
+                    for (k, dir) in dirs.iter().enumerate().take(kin.len()) {
+                        let off = (dir - jac.axis_dir[k]).norm();
+                        proptest::prop_assert!(off < 1e-14, "{} {model:?} var {k}: {:?} {:?}", MACHINES[m], dir, jac.axis_dir[k]);
                     }
                 }
             }

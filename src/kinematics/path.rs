@@ -109,19 +109,37 @@ impl Kinematics {
     #[allow(clippy::too_many_arguments)]
     pub fn subdivide(
         &self,
+        moves: (&[f64], &[f64]),
+        compensated: (&[f64], &[f64]),
+        length: f64,
+        hold: u32,
+        tol: &PathTolerance,
+        options: &SolveOptions,
+    ) -> Vec<Piece> {
+        let mut pieces = Vec::new();
+        self.subdivide_into(moves, compensated, length, hold, tol, options, &mut pieces);
+        pieces
+    }
+
+    /// [`Kinematics::subdivide`] into `pieces` (cleared first): a pass that checks every
+    /// move reuses one list instead of allocating one per block.
+    #[allow(clippy::too_many_arguments)]
+    pub fn subdivide_into(
+        &self,
         (qa, qb): (&[f64], &[f64]),
         (ca, cb): (&[f64], &[f64]),
         length: f64,
         hold: u32,
         tol: &PathTolerance,
         options: &SolveOptions,
-    ) -> Vec<Piece> {
+        pieces: &mut Vec<Piece>,
+    ) {
         let n = self.len();
         let mut end = [0.0; MAX_AXES];
         end[..n].copy_from_slice(&cb[..n]);
         let mut start = [0.0; MAX_AXES];
         start[..n].copy_from_slice(&ca[..n]);
-        let mut pieces = Vec::new();
+        pieces.clear();
         self.split(
             (qa, qb),
             (0.0, start),
@@ -131,9 +149,8 @@ impl Kinematics {
             tol,
             options,
             0,
-            &mut pieces,
+            pieces,
         );
-        pieces
     }
 
     #[allow(clippy::too_many_arguments)]

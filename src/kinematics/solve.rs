@@ -127,8 +127,8 @@ impl Kinematics {
         // Within `limit` of the line, either way: |cos| above cos(limit) (unit vectors).
         let cos_limit = limit.cos();
         let mut held = 0;
-        for k in 0..self.len() {
-            if self.kind(k) == AxisKind::Rotary && dirs[k].dot(&pose.o).abs() > cos_limit {
+        for (k, dir) in dirs.iter().enumerate().take(self.len()) {
+            if self.kind(k) == AxisKind::Rotary && dir.dot(&pose.o).abs() > cos_limit {
                 held |= 1 << k;
             }
         }
