@@ -139,7 +139,8 @@ impl Kinematics {
     /// variables whose bits are set in `held`.
     ///
     /// The Jacobian is taken once at the start and reused (the pose changes by microns, so
-    /// it hardly changes); it is taken again only after a step that fell short ([`SLOW`]).
+    /// it hardly changes); it is taken again only after a step that left more than a
+    /// quarter of the residual.
     pub fn solve(
         &self,
         model: Model,
