@@ -37,7 +37,7 @@ impl Default for SolveOptions {
 }
 
 /// A step that leaves more than this share of the residual (position or direction) makes
-/// the next one take a fresh Jacobian.
+/// the solve take a fresh Jacobian (at most every fourth step).
 const SLOW: f64 = 0.25;
 
 /// The result of a solve.
@@ -140,7 +140,7 @@ impl Kinematics {
     ///
     /// The Jacobian is taken once at the start and reused (the pose changes by microns, so
     /// it hardly changes); it is taken again only after a step that left more than a
-    /// quarter of the residual.
+    /// quarter of the residual, and at most every fourth step.
     pub fn solve(
         &self,
         model: Model,
@@ -187,8 +187,10 @@ impl Kinematics {
         let (start_position_error, start_direction_error) = pose.deviation(target);
         let mut iterations = 0;
         let mut near = *angles;
-        // The residual before the last step, to see how well the Jacobian still serves.
+        // The residual before the last step, to see how well the Jacobian still serves, and
+        // the step the Jacobian was last taken at (0: the start).
         let mut last = (f64::INFINITY, f64::INFINITY);
+        let mut taken = 0;
         loop {
             let rp = pose.p - target.p;
             let rd = [b1.dot(&pose.o), b2.dot(&pose.o)];
@@ -201,11 +203,14 @@ impl Kinematics {
             }
             // The Jacobian taken at the start leaves about a thousandth of the residual a
             // step (the axes move by the correction, hundreds of micro-radians, and it
-            // with them): it is taken again only where a step fell well short of that.
+            // with them): it is taken again only where a step fell well short of that, and
+            // at most every fourth step (where even a fresh one does not help, as for a
+            // target out of reach, a Jacobian a step would cost four poses a step).
             let slow = (ep > options.position_tolerance && ep > SLOW * last.0)
                 || (ea > options.angle_tolerance && ea > SLOW * last.1);
             last = (ep, ea);
             iterations += 1;
+            let refresh = slow && iterations >= taken + 4;
             let step = map.step(&[rp.x, rp.y, rp.z, rd[0], rd[1]]);
             let mut biggest: f64 = 0.0;
             for (i, &k) in free.iter().enumerate() {
@@ -213,7 +218,8 @@ impl Kinematics {
                 biggest = biggest.max(step[i].abs());
             }
             angles.near_into(&q[..n], &mut near);
-            if slow {
+            if refresh {
+                taken = iterations;
                 let jac;
                 (pose, jac) = self.jacobian_at(model, &q[..n], length, &near);
                 beyond = jac.beyond;
