@@ -104,8 +104,9 @@ impl Kinematics {
         let mut dirs = [Vector3::zeros(); MAX_AXES];
         let (target, _) = self.axes_at(Model::Nominal, q, length, &angles, &mut dirs);
         let singular = self.singular_axes(&target, &dirs, options.singular_angle) & !hold;
-        // Newton's method with the real machine's Jacobian (error tables' slopes included)
-        // converges quadratically: from tens of microns, two steps reach 1e-10 mm.
+        // Newton's method with the real machine's Jacobian (error tables' slopes included),
+        // taken here and kept while it serves: each step leaves about a five-hundredth of
+        // the residual, so from tens of microns three steps reach 1e-10 mm.
         let (pose, jac) = self.jacobian_at(Model::Actual, q, length, &angles);
         let mut sol = self.solve_from(
             Model::Actual,
