@@ -127,11 +127,24 @@ fn zero_model_is_the_identity() {
     assert_eq!(sol.iterations, 0);
 }
 
+/// The solve lands within design/model.md's target residual (1e-6 mm, 1e-8 rad) with the
+/// default options and with the compensation pass's looser ones.
 fn check_lands(machine: &nccomp::model::Machine, seed: u64, q: [f64; 5], length: f64) {
+    for opts in [SolveOptions::default(), SolveOptions::compensation()] {
+        check_lands_with(machine, seed, q, length, &opts);
+    }
+}
+
+fn check_lands_with(
+    machine: &nccomp::model::Machine,
+    seed: u64,
+    q: [f64; 5],
+    length: f64,
+    opts: &SolveOptions,
+) {
     let errors = random_errors(machine, &mut Lcg(seed));
     let kin = Kinematics::new(machine, &errors, 0).unwrap();
-    let opts = SolveOptions::default();
-    let sol = kin.compensate(&q, length, 0, &opts);
+    let sol = kin.compensate(&q, length, 0, opts);
     let (target, _) = kin.pose(Model::Nominal, &q, length);
     let (reached, _) = kin.pose(Model::Actual, sol.values(), length);
     let (dp, dd) = reached.deviation(&target);

@@ -71,7 +71,7 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             tool_chain: None,
-            solve: SolveOptions::default(),
+            solve: SolveOptions::compensation(),
             allow_limit_violations: false,
             max_correction: (10.0, 2.0),
             max_errors: 20,

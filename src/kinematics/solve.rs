@@ -36,6 +36,22 @@ impl Default for SolveOptions {
     }
 }
 
+impl SolveOptions {
+    /// For writing programs: the default's limits on the angle and the iterations, and
+    /// stopping tolerances a tenth of design/model.md's target residual (1e-6 mm, 1e-8
+    /// rad). That is still a thousandth of the finest resolution a program is written in
+    /// (0.1 µm), and it saves the default's third Newton step, which only takes the residual
+    /// from about 1e-8 to 1e-11 mm: a sixth of a block's work. The default's tighter
+    /// tolerances stay for the analysis tools, which difference solves.
+    pub fn compensation() -> Self {
+        SolveOptions {
+            position_tolerance: 1e-7,
+            angle_tolerance: 1e-9,
+            ..SolveOptions::default()
+        }
+    }
+}
+
 /// A step that leaves more than this share of the residual (position or direction) makes
 /// the solve take a fresh Jacobian (at most every fourth step).
 const SLOW: f64 = 0.25;
@@ -106,7 +122,8 @@ impl Kinematics {
         let singular = self.singular_axes(&target, &dirs, options.singular_angle) & !hold;
         // Newton's method with the real machine's Jacobian (error tables' slopes included),
         // taken here and kept while it serves: each step leaves about a five-hundredth of
-        // the residual, so from tens of microns three steps reach 1e-10 mm.
+        // the residual, so from tens of microns two steps reach the compensation
+        // tolerance (1e-7 mm) and three the default's (1e-10 mm).
         let (pose, jac) = self.jacobian_at(Model::Actual, q, length, &angles);
         let mut sol = self.solve_from(
             Model::Actual,
@@ -403,8 +420,9 @@ fn general_map(free: &[usize], row: &dyn Fn(usize, usize) -> f64) -> SMatrix<f64
 impl Kinematics {
     /// Inverse kinematics: axis values at which `model` reaches `target`, by Newton's
     /// method from `guess` (which picks the branch). A rotary axis that is singular at the
-    /// target keeps its guessed value. `None` when the solve does not land within 1e-9 mm
-    /// and 1e-9 rad (a target out of reach, or a guess too far away).
+    /// target keeps its guessed value. `None` when the solve does not land within the
+    /// options' tolerances, or 1e-9 mm and 1e-9 rad where those are tighter (a target out
+    /// of reach, or a guess too far away).
     pub fn inverse(
         &self,
         model: Model,
@@ -416,8 +434,9 @@ impl Kinematics {
         let (_, jac) = self.pose_and_jacobian(model, guess, length);
         let held = self.singular_axes(target, &jac.axis_dir, options.singular_angle);
         let sol = self.solve(model, target, guess, length, held, options);
-        let direction_ok = held != 0 || sol.direction_residual < 1e-9;
-        (sol.position_residual < 1e-9 && direction_ok).then_some(sol)
+        let direction_ok = held != 0 || sol.direction_residual <= options.angle_tolerance.max(1e-9);
+        (sol.position_residual <= options.position_tolerance.max(1e-9) && direction_ok)
+            .then_some(sol)
     }
 }
 
