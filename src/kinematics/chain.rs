@@ -389,25 +389,44 @@ pub(super) fn walk<const TWIST: bool>(
 
 /// The vectors a pose evaluation carries through the joints: the tip `x`, the tool
 /// direction `d` and, when asked for (`axes`), the directions of the rotary axes met so
-/// far. A plain pose carries only the first two: no array of directions to set up or copy.
+/// far and perhaps the Jacobian's columns. A plain pose carries only the first two: no
+/// arrays to set up or copy.
 pub(super) struct Carried<'a, 'b> {
     pub x: Vector3<f64>,
     pub d: Vector3<f64>,
     pub axes: Option<&'a mut CarriedAxes<'b>>,
 }
 
-/// The rotary axes' directions a pose evaluation carries: entry per variable, bit k of
-/// `carried` set once variable k's is in.
+/// The per-variable vectors a pose evaluation carries: the rotary axes' directions (zero
+/// for linear axes) and, with `columns`, the Jacobian's columns d p / d q and d o / d q;
+/// bit k of `carried` set once variable k's are in.
+///
+/// A joint's column is the velocity it gives the tip (or, for a workpiece joint, the
+/// opposite of the velocity it gives the part at the tip) in its parent's frame, and the
+/// joints between there and the workpiece frame carry it like any vector. That takes one
+/// matrix–vector product per vector and joint instead of the products of the joints'
+/// transforms a walk along the chain needs.
 pub(super) struct CarriedAxes<'a> {
     pub dirs: &'a mut [Vector3<f64>; MAX_AXES],
+    pub columns: Option<Columns<'a>>,
     pub carried: u32,
+}
+
+/// d p / d q and d o / d q, entry per variable.
+pub(super) struct Columns<'a> {
+    pub dp: &'a mut [Vector3<f64>; MAX_AXES],
+    pub do_: &'a mut [Vector3<f64>; MAX_AXES],
 }
 
 impl<'a> CarriedAxes<'a> {
     /// Into `dirs`, which end with zeros for the linear axes.
     pub fn new(dirs: &'a mut [Vector3<f64>; MAX_AXES]) -> Self {
         *dirs = [Vector3::zeros(); MAX_AXES];
-        CarriedAxes { dirs, carried: 0 }
+        CarriedAxes {
+            dirs,
+            columns: None,
+            carried: 0,
+        }
     }
 
     #[inline]
@@ -417,6 +436,10 @@ impl<'a> CarriedAxes<'a> {
             let k = bits.trailing_zeros() as usize;
             bits &= bits - 1;
             self.dirs[k] = f(&self.dirs[k]);
+            if let Some(c) = &mut self.columns {
+                c.dp[k] = f(&c.dp[k]);
+                c.do_[k] = f(&c.do_[k]);
+            }
         }
     }
 
@@ -425,11 +448,30 @@ impl<'a> CarriedAxes<'a> {
         self.dirs[var] = dir;
         self.carried |= 1 << var;
     }
+
+    /// Joint `var`'s axis and columns from its motion `twist` at the tip `x` and the
+    /// direction `d` (all in its parent's frame), with `sign` −1 for a workpiece joint.
+    #[inline]
+    fn put_columns(
+        &mut self,
+        var: usize,
+        twist: &Twist,
+        x: &Vector3<f64>,
+        d: &Vector3<f64>,
+        sign: f64,
+    ) {
+        if let Some(c) = &mut self.columns {
+            c.dp[var] = (twist.omega.cross(&(x - twist.c)) + twist.v) * sign;
+            c.do_[var] = twist.omega.cross(d) * sign;
+        }
+        self.put(var, twist.axis);
+    }
 }
 
 /// The vectors given in the chain's end frame, carried out to its base frame: the joints
 /// applied from the last to the first. Cheaper than forming the chain's transform when
-/// only a few vectors are wanted. `AXES`: `c.axes` is given and gets the rotary axes.
+/// only a few vectors are wanted. `AXES`: `c.axes` is given and gets the rotary axes (and
+/// the columns, when it has them).
 #[inline]
 pub(super) fn carry_out<const AXES: bool>(
     joints: &[Joint],
@@ -449,12 +491,13 @@ pub(super) fn carry_out<const AXES: bool>(
         } else {
             c.x += jt.t;
         }
-        if AXES
-            && j.kind == AxisKind::Rotary
-            && let Some(axes) = c.axes.as_deref_mut()
-        {
+        if AXES && let Some(axes) = c.axes.as_deref_mut() {
             // In the joint's parent frame, as the joints before it will carry it.
-            axes.put(j.var, twist.axis);
+            if axes.columns.is_some() {
+                axes.put_columns(j.var, &twist, &c.x, &c.d, 1.0);
+            } else if j.kind == AxisKind::Rotary {
+                axes.put(j.var, twist.axis);
+            }
         }
     }
 }
@@ -470,7 +513,17 @@ pub(super) fn carry_in<const AXES: bool>(
     c: &mut Carried<'_, '_>,
 ) {
     for j in joints {
-        let (jt, rotates, _) = j.eval::<false>(q[j.var], angles.get(j.var), beyond);
+        let columns = AXES && c.axes.as_ref().is_some_and(|a| a.columns.is_some());
+        let (jt, rotates, twist) = if columns {
+            j.eval::<true>(q[j.var], angles.get(j.var), beyond)
+        } else {
+            j.eval::<false>(q[j.var], angles.get(j.var), beyond)
+        };
+        if columns && let Some(axes) = c.axes.as_deref_mut() {
+            // In the joint's parent frame, where the tip and direction now are; its own
+            // inverse and those after it carry them in.
+            axes.put_columns(j.var, &twist, &c.x, &c.d, -1.0);
+        }
         if rotates {
             c.x = jt.r.tr_mul(&(c.x - jt.t));
             c.d = jt.r.tr_mul(&c.d);
@@ -481,6 +534,7 @@ pub(super) fn carry_in<const AXES: bool>(
             c.x -= jt.t;
         }
         if AXES
+            && !columns
             && j.kind == AxisKind::Rotary
             && let Some(axes) = c.axes.as_deref_mut()
         {

@@ -306,8 +306,35 @@ impl Kinematics {
         self.carry::<true>(model, q, length, angles, Some(&mut axes))
     }
 
-    /// [`Kinematics::pose_and_jacobian`] with the rotary axes' sines and cosines given.
+    /// [`Kinematics::pose_and_jacobian`] with the rotary axes' sines and cosines given:
+    /// the columns carried with the tip and direction (see [`chain::CarriedAxes`]), or for
+    /// turning poses, which need the spindle's line, by a walk along the chains.
     pub(crate) fn jacobian_at(
+        &self,
+        model: Model,
+        q: &[f64],
+        length: f64,
+        angles: &Angles,
+    ) -> (Pose, Jacobian) {
+        if self.turning.is_some() {
+            return self.walk_jacobian(model, q, length, angles);
+        }
+        let mut jac = Jacobian::zero(self.len(), false);
+        let mut axes = chain::CarriedAxes {
+            dirs: &mut jac.axis_dir,
+            columns: Some(chain::Columns {
+                dp: &mut jac.dp,
+                do_: &mut jac.do_,
+            }),
+            carried: 0,
+        };
+        let (pose, beyond) = self.carry::<true>(model, q, length, angles, Some(&mut axes));
+        jac.beyond = beyond;
+        (pose, jac)
+    }
+
+    /// The pose and Jacobian by products of the joints' transforms along each chain.
+    fn walk_jacobian(
         &self,
         model: Model,
         q: &[f64],
@@ -491,6 +518,38 @@ mod tests {
                     for (k, dir) in dirs.iter().enumerate().take(kin.len()) {
                         let off = (dir - jac.axis_dir[k]).norm();
                         proptest::prop_assert!(off < 1e-14, "{} {model:?} var {k}: {:?} {:?}", MACHINES[m], dir, jac.axis_dir[k]);
+                    }
+                }
+            }
+        }
+
+        #[test]
+        fn carried_jacobians_are_the_walked_ones(
+            m in 0..MACHINES.len(),
+            u in proptest::collection::vec(0.0..1.0f64, MAX_AXES),
+            length in 0.0..150.0f64,
+        ) {
+            let (machine, errors) = fixture(MACHINES[m]);
+            for chain in 0..machine.tool_chains.len() {
+                let kin = Kinematics::new(&machine, &errors, chain).unwrap();
+                let q = axis_values(&machine, &kin, &u);
+                let angles = kin.angles(&q);
+                for model in [Model::Actual, Model::Nominal] {
+                    let (pose, jac) = kin.jacobian_at(model, &q, length, &angles);
+                    let (want, walked) = kin.walk_jacobian(model, &q, length, &angles);
+                    let (dp, da) = pose.deviation(&want);
+                    proptest::prop_assert!(dp < 1e-11 && da < 1e-14);
+                    proptest::prop_assert_eq!(jac.beyond, walked.beyond);
+                    for k in 0..kin.len() {
+                        let scale = walked.dp[k].norm().max(1.0);
+                        let pairs = [
+                            (jac.dp[k], walked.dp[k], 1e-13 * scale),
+                            (jac.do_[k], walked.do_[k], 1e-14),
+                            (jac.axis_dir[k], walked.axis_dir[k], 1e-14),
+                        ];
+                        for (got, want, tolerance) in pairs {
+                            proptest::prop_assert!((got - want).norm() < tolerance, "{} {model:?} var {k}: {got:?} vs {want:?}", MACHINES[m]);
+                        }
                     }
                 }
             }

@@ -56,6 +56,16 @@ impl SolveOptions {
 /// the solve take a fresh Jacobian (at most every fourth step).
 const SLOW: f64 = 0.25;
 
+/// Where a solve starts: the pose at the start values (and whether an error table was read
+/// beyond its ends there), and the Jacobian it steps with at first: `own` when it is the
+/// solved model's own there, not the other model's.
+struct Start<'a> {
+    pose: Pose,
+    beyond: bool,
+    jac: &'a Jacobian,
+    own: bool,
+}
+
 /// The result of a solve.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Solution {
@@ -117,14 +127,23 @@ impl Kinematics {
         // real machine's axis lines are off by up to a few hundred micro-radians, which
         // would move the edge of the singular cone by that much.
         let angles = self.angles(q);
-        let mut dirs = [Vector3::zeros(); MAX_AXES];
-        let (target, _) = self.axes_at(Model::Nominal, q, length, &angles, &mut dirs);
-        let singular = self.singular_axes(&target, &dirs, options.singular_angle) & !hold;
-        // Newton's method with the real machine's Jacobian (error tables' slopes included),
-        // taken here and kept while it serves: each step leaves about a five-hundredth of
-        // the residual, so from tens of microns two steps reach the compensation
-        // tolerance (1e-7 mm) and three the default's (1e-10 mm).
-        let (pose, jac) = self.jacobian_at(Model::Actual, q, length, &angles);
+        let (target, nominal) = self.jacobian_at(Model::Nominal, q, length, &angles);
+        let singular =
+            self.singular_axes(&target, &nominal.axis_dir, options.singular_angle) & !hold;
+        // Newton's method with the nominal machine's Jacobian, which comes with the target
+        // pose: the errors change it by about their own size (a thousandth), so a step
+        // leaves about a thousandth of the residual, as the real machine's Jacobian at the
+        // programmed values does (that one is off by the correction instead), without the
+        // error tables' look-ups and slopes. So from tens of microns two steps reach the
+        // compensation tolerance (1e-7 mm) and three the default's (1e-10 mm). Where the
+        // errors are too large for that, the first slow step takes the real machine's.
+        let (pose, beyond) = self.pose_at(Model::Actual, q, length, &angles);
+        let start = Start {
+            pose,
+            beyond,
+            jac: &nominal,
+            own: false,
+        };
         let mut sol = self.solve_from(
             Model::Actual,
             &target,
@@ -132,8 +151,7 @@ impl Kinematics {
             length,
             hold | singular,
             options,
-            pose,
-            &jac,
+            start,
             &angles,
         );
         sol.singular = singular;
@@ -170,12 +188,17 @@ impl Kinematics {
     ) -> Solution {
         let angles = self.angles(start);
         let (pose, jac) = self.jacobian_at(model, &start[..self.len()], length, &angles);
-        self.solve_from(
-            model, target, start, length, held, options, pose, &jac, &angles,
-        )
+        let from = Start {
+            pose,
+            beyond: jac.beyond,
+            jac: &jac,
+            own: true,
+        };
+        self.solve_from(model, target, start, length, held, options, from, &angles)
     }
 
-    /// [`Kinematics::solve`] with the pose and Jacobian at `start` already evaluated.
+    /// [`Kinematics::solve`] with the pose at `start` already evaluated and a Jacobian to
+    /// step with at first.
     #[allow(clippy::too_many_arguments)]
     fn solve_from(
         &self,
@@ -185,10 +208,15 @@ impl Kinematics {
         length: f64,
         held: u32,
         options: &SolveOptions,
-        mut pose: Pose,
-        jac: &Jacobian,
+        from: Start<'_>,
         angles: &Angles,
     ) -> Solution {
+        let Start {
+            mut pose,
+            mut beyond,
+            jac,
+            own,
+        } = from;
         let n = self.len();
         let mut q = [0.0; MAX_AXES];
         q[..n].copy_from_slice(&start[..n]);
@@ -200,15 +228,14 @@ impl Kinematics {
             m += 1;
         }
         let free = &free[..m];
-        let mut beyond = jac.beyond;
         let mut map = step_map(jac, free, &b1, &b2);
         let (start_position_error, start_direction_error) = pose.deviation(target);
         let mut iterations = 0;
         let mut near = *angles;
         // The residual before the last step, to see how well the Jacobian still serves, and
-        // the step the Jacobian was last taken at (0: the start).
+        // the first step that may take a fresh one (after a borrowed one, the first).
         let mut last = (f64::INFINITY, f64::INFINITY);
-        let mut taken = 0;
+        let mut next_fresh = if own { 4 } else { 1 };
         loop {
             let rp = pose.p - target.p;
             let rd = [b1.dot(&pose.o), b2.dot(&pose.o)];
@@ -228,7 +255,7 @@ impl Kinematics {
                 || (ea > options.angle_tolerance && ea > SLOW * last.1);
             last = (ep, ea);
             iterations += 1;
-            let refresh = slow && iterations >= taken + 4;
+            let refresh = slow && iterations >= next_fresh;
             let step = map.step(&[rp.x, rp.y, rp.z, rd[0], rd[1]]);
             let mut biggest: f64 = 0.0;
             for (i, &k) in free.iter().enumerate() {
@@ -237,7 +264,7 @@ impl Kinematics {
             }
             angles.near_into(&q[..n], &mut near);
             if refresh {
-                taken = iterations;
+                next_fresh = iterations + 4;
                 let jac;
                 (pose, jac) = self.jacobian_at(model, &q[..n], length, &near);
                 beyond = jac.beyond;
