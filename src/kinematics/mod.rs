@@ -100,6 +100,8 @@ pub struct Kinematics {
     /// Machine axis index of each variable, in the machine file's axis order.
     axes: Vec<usize>,
     kinds: Vec<AxisKind>,
+    /// Bit k set: variable k is a rotary axis.
+    rotary: u32,
     nominal: Chains,
     actual: Chains,
     reference_tool: f64,
@@ -175,8 +177,15 @@ impl Kinematics {
                 tool: tool.axes.iter().map(|&i| joint(i)).collect(),
             }
         };
+        let kinds: Vec<AxisKind> = axes.iter().map(|&i| machine.axes[i].kind).collect();
+        let rotary = kinds
+            .iter()
+            .enumerate()
+            .filter(|(_, k)| **k == AxisKind::Rotary)
+            .fold(0, |m, (v, _)| m | 1 << v);
         Ok(Kinematics {
-            kinds: axes.iter().map(|&i| machine.axes[i].kind).collect(),
+            kinds,
+            rotary,
             nominal: build(&zero),
             actual: build(errors),
             axes,
@@ -215,18 +224,9 @@ impl Kinematics {
         Vector3::new(0.0, 0.0, -(length - self.reference_tool))
     }
 
-    /// Bit k set: variable k is a rotary axis.
-    fn rotary_mask(&self) -> u32 {
-        self.kinds
-            .iter()
-            .enumerate()
-            .filter(|(_, k)| **k == AxisKind::Rotary)
-            .fold(0, |m, (v, _)| m | 1 << v)
-    }
-
     /// The sines and cosines of the rotary axes at `q`, for [`Kinematics::pose_near`].
     pub fn angles(&self, q: &[f64]) -> Angles {
-        Angles::new(&q[..self.len()], self.rotary_mask())
+        Angles::new(&q[..self.len()], self.rotary)
     }
 
     /// The pose at axis values `q` (mm, degrees) with the tool of length `length` (a

@@ -8,7 +8,6 @@
 //! solve of what is written gives exactly the axis values the real machine needs.
 
 use super::{Kinematics, Model, Pose, Solution, SolveOptions};
-use crate::model::AxisKind;
 
 /// What to write for one TCP block.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -30,13 +29,6 @@ impl Kinematics {
         length: f64,
         options: &SolveOptions,
     ) -> Solution {
-        let n = self.len();
-        let mut rotary_mask = 0u32;
-        for k in 0..n {
-            if self.kind(k) == AxisKind::Rotary {
-                rotary_mask |= 1 << k;
-            }
-        }
         // The direction follows from the rotary positions alone.
         let (at_guess, _) = self.pose(Model::Nominal, rotary_and_guess, length);
         let target = Pose {
@@ -48,7 +40,7 @@ impl Kinematics {
             &target,
             rotary_and_guess,
             length,
-            rotary_mask,
+            self.rotary,
             options,
         )
     }
