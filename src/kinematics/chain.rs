@@ -275,7 +275,7 @@ impl Joint {
     /// The joint transform at position `q` (mm or degrees; `sc` the sine and cosine of a
     /// rotary joint's `q` in radians), whether it rotates at all, and, with `TWIST`, how it
     /// moves. Sets `beyond` when an error table was read past its ends.
-    #[inline]
+    #[inline(always)]
     fn eval<const TWIST: bool>(
         &self,
         q: f64,
