@@ -30,8 +30,9 @@ pub struct SearchOptions {
     /// How close (mm) the trace must come to the first point of a piece of reference
     /// path to be taken as following it, and the most a distance widens the window by.
     pub capture: f64,
-    /// Sample intervals shorter than this (mm) are too short to have a direction
-    /// (measurement noise) and are never refused for running backwards.
+    /// The measurement noise of a sample's tool tip (mm). Sample intervals up to twice
+    /// this long are too short to have a direction and are never refused for running
+    /// backwards.
     pub noise: f64,
 }
 
@@ -221,8 +222,14 @@ impl<'a> ActualPath<'a> {
             let tiny = 1e-9;
             let tangents: [Option<Vector3<f64>>; 2] =
                 [before, after].map(|t| t.filter(|t| t.norm() > tiny));
+            // Both ends of a sample interval are off by up to `noise`, so noise alone turns
+            // an interval that moves forward or not at all against the travel only if it is
+            // at most twice the noise long. Where the machine stands (before the program's
+            // start, after its end, at an exact stop) its samples scatter around one place
+            // in intervals up to that long, pointing anywhere: refusing the ones that point
+            // backwards would miss the nearest place in the scatter by up to the noise.
             let forward = |j: usize| {
-                self.along[j + 1] - self.along[j] <= options.noise
+                self.along[j + 1] - self.along[j] <= 2.0 * options.noise
                     || tangents.iter().all(Option::is_none)
                     || tangents
                         .iter()
