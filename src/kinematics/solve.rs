@@ -294,9 +294,11 @@ impl Kinematics {
     }
 }
 
-/// The Newton step for a residual: with five free variables the LU factors of the square
-/// Jacobian, otherwise an explicit map (below).
+/// The Newton step for a residual: with five free variables the square Jacobian solved in
+/// blocks where its structure allows, or by its LU factors; otherwise an explicit map
+/// (below).
 enum StepMap {
+    Split(Split5),
     Square(Lu5),
     General(SMatrix<f64, MAX_AXES, 5>),
 }
@@ -306,12 +308,107 @@ impl StepMap {
     fn step(&self, r: &[f64; 5]) -> [f64; MAX_AXES] {
         let mut out = [0.0; MAX_AXES];
         match self {
+            StepMap::Split(split) => out[..5].copy_from_slice(&split.solve(r)),
             StepMap::Square(lu) => out[..5].copy_from_slice(&lu.solve(r)),
             StepMap::General(map) => {
                 out.copy_from_slice((map * Vector5::from_column_slice(r)).as_slice());
             }
         }
         out
+    }
+}
+
+/// A square Jacobian whose direction rows (3 and 4) vanish on three of its columns, as the
+/// nominal machine's do on its linear axes (they move the tip and leave the direction
+/// alone), solved in blocks: the direction rows give the other two variables (a 2×2
+/// solve), the position rows then the three (a 3×3 solve). The same step as the LU's for a
+/// third of its work; `None` where the structure is not there or a block is near singular
+/// (the LU then decides).
+#[derive(Debug, Clone, Copy)]
+struct Split5 {
+    /// Columns that leave the direction alone, and the two that turn it.
+    still: [usize; 3],
+    turning: [usize; 2],
+    /// Inverse of the direction rows on `turning`.
+    d_inv: [[f64; 2]; 2],
+    /// The position rows on `turning`.
+    p_turning: [[f64; 2]; 3],
+    /// Inverse of the position rows on `still`.
+    p_inv: [[f64; 3]; 3],
+}
+
+impl Split5 {
+    /// A block's determinant below this share of the product of its columns' lengths
+    /// (their largest possible determinant) counts as singular.
+    const SINGULAR: f64 = 1e-8;
+
+    /// Whether a determinant is clear of singular against the largest one its columns'
+    /// lengths allow (false for a NaN too).
+    fn regular(det: f64, largest: f64) -> bool {
+        det.abs() > Self::SINGULAR * largest
+    }
+
+    fn new(m: &[[f64; 5]; 5]) -> Option<Self> {
+        let (mut still, mut turning) = ([0; 3], [0; 2]);
+        let (mut s, mut t) = (0, 0);
+        for (j, (&d1, &d2)) in m[3].iter().zip(&m[4]).enumerate() {
+            if d1 == 0.0 && d2 == 0.0 {
+                *still.get_mut(s)? = j;
+                s += 1;
+            } else {
+                *turning.get_mut(t)? = j;
+                t += 1;
+            }
+        }
+        if s != 3 {
+            return None;
+        }
+        let [a, b] = [m[3][turning[0]], m[3][turning[1]]];
+        let [c, d] = [m[4][turning[0]], m[4][turning[1]]];
+        let det = a * d - b * c;
+        if !Self::regular(det, a.hypot(c) * b.hypot(d)) {
+            return None;
+        }
+        let d_inv = [[d / det, -b / det], [-c / det, a / det]];
+        let p = |i: usize, k: usize| m[i][still[k]];
+        // Cofactors of the 3×3 block; its inverse is their transpose over the determinant.
+        let cof = |i: usize, j: usize| {
+            let (r0, r1) = ((i + 1) % 3, (i + 2) % 3);
+            let (c0, c1) = ((j + 1) % 3, (j + 2) % 3);
+            p(r0, c0) * p(r1, c1) - p(r0, c1) * p(r1, c0)
+        };
+        let det3 = p(0, 0) * cof(0, 0) + p(0, 1) * cof(0, 1) + p(0, 2) * cof(0, 2);
+        let length = |k: usize| (p(0, k).powi(2) + p(1, k).powi(2) + p(2, k).powi(2)).sqrt();
+        if !Self::regular(det3, length(0) * length(1) * length(2)) {
+            return None;
+        }
+        Some(Split5 {
+            still,
+            turning,
+            d_inv,
+            p_turning: std::array::from_fn(|i| [m[i][turning[0]], m[i][turning[1]]]),
+            p_inv: std::array::from_fn(|i| std::array::from_fn(|j| cof(j, i) / det3)),
+        })
+    }
+
+    /// x with M·x = r.
+    fn solve(&self, r: &[f64; 5]) -> [f64; 5] {
+        let d = &self.d_inv;
+        let turn = [
+            d[0][0] * r[3] + d[0][1] * r[4],
+            d[1][0] * r[3] + d[1][1] * r[4],
+        ];
+        let rest: [f64; 3] = std::array::from_fn(|i| {
+            r[i] - self.p_turning[i][0] * turn[0] - self.p_turning[i][1] * turn[1]
+        });
+        let mut x = [0.0; 5];
+        x[self.turning[0]] = turn[0];
+        x[self.turning[1]] = turn[1];
+        for (k, &j) in self.still.iter().enumerate() {
+            let row = &self.p_inv[k];
+            x[j] = row[0] * rest[0] + row[1] * rest[1] + row[2] * rest[2];
+        }
+        x
     }
 }
 
@@ -385,12 +482,14 @@ fn step_map(jac: &Jacobian, free: &[usize], b1: &Vector3<f64>, b2: &Vector3<f64>
         3 => b1.dot(&jac.do_[k]),
         _ => b2.dot(&jac.do_[k]),
     };
-    if free.len() == 5
-        && let Some(lu) = Lu5::new(std::array::from_fn(|i| {
-            std::array::from_fn(|j| row(i, free[j]))
-        }))
-    {
-        return StepMap::Square(lu);
+    if free.len() == 5 {
+        let m = std::array::from_fn(|i| std::array::from_fn(|j| row(i, free[j])));
+        if let Some(split) = Split5::new(&m) {
+            return StepMap::Split(split);
+        }
+        if let Some(lu) = Lu5::new(m) {
+            return StepMap::Square(lu);
+        }
     }
     StepMap::General(general_map(free, &row))
 }
@@ -489,6 +588,54 @@ mod tests {
                 proptest::prop_assert!((x - want).norm() <= 1e-8 * (1.0 + want.norm()), "{got:?} {want:?}");
             }
         }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn split_solves_are_the_lus(
+            m in proptest::collection::vec(-10.0..10.0f64, 25),
+            r in proptest::collection::vec(-1.0..1.0f64, 5),
+            order in proptest::sample::subsequence(vec![0usize, 1, 2, 3, 4], 3),
+        ) {
+            // Direction rows zero on three columns, anywhere.
+            let mut a: [[f64; 5]; 5] = std::array::from_fn(|i| std::array::from_fn(|j| m[i * 5 + j]));
+            for &j in &order {
+                a[3][j] = 0.0;
+                a[4][j] = 0.0;
+            }
+            let r = [r[0], r[1], r[2], r[3], r[4]];
+            let split = Split5::new(&a);
+            // Only a (near) singular matrix goes without the split.
+            let det = nalgebra::Matrix5::from_fn(|i, j| a[i][j]).determinant();
+            let split_or_near_singular = split.is_some() || det.abs() < 1e-3;
+            proptest::prop_assert!(split_or_near_singular, "{a:?}: det {det}");
+            if let (Some(split), Some(lu)) = (split, Lu5::new(a)) {
+                let (x, want) = (split.solve(&r), lu.solve(&r));
+                let matrix = nalgebra::Matrix5::from_fn(|i, j| a[i][j]);
+                let xv = Vector5::from_column_slice(&x);
+                let residual = (matrix * xv - Vector5::from_column_slice(&r)).norm();
+                proptest::prop_assert!(residual < 1e-9 * (1.0 + matrix.norm() * xv.norm()), "{x:?} {want:?}");
+                let wv = Vector5::from_column_slice(&want);
+                proptest::prop_assert!((xv - wv).norm() <= 1e-7 * (1.0 + wv.norm()), "{x:?} {want:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn split_needs_the_structure() {
+        let mut m = [[1.0, 2.0, 0.5, 0.3, 0.7]; 5];
+        for (i, row) in m.iter_mut().enumerate() {
+            row[i] += 3.0;
+        }
+        // Direction rows nonzero everywhere: no split, the LU.
+        assert!(Split5::new(&m).is_none());
+        m[3][..3].fill(0.0);
+        m[4][..3].fill(0.0);
+        assert!(Split5::new(&m).is_some());
+        // Four columns without direction: the two-by-two block would need three.
+        m[3][3] = 0.0;
+        m[4][3] = 0.0;
+        assert!(Split5::new(&m).is_none());
     }
 
     #[test]
