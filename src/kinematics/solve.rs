@@ -228,7 +228,7 @@ impl Kinematics {
             m += 1;
         }
         let free = &free[..m];
-        let mut map = step_map(jac, free, &b1, &b2);
+        let mut map = step_map(jac, free, &b1, &b2, !own);
         let (start_position_error, start_direction_error) = pose.deviation(target);
         let mut iterations = 0;
         let mut near = *angles;
@@ -268,7 +268,7 @@ impl Kinematics {
                 let jac;
                 (pose, jac) = self.jacobian_at(model, &q[..n], length, &near);
                 beyond = jac.beyond;
-                map = step_map(&jac, free, &b1, &b2);
+                map = step_map(&jac, free, &b1, &b2, false);
             } else {
                 (pose, beyond) = self.pose_at(model, &q[..n], length, &near);
             }
@@ -476,7 +476,19 @@ impl Lu5 {
 /// The step map for the Jacobian `jac` on the variables `free`: position rows exactly
 /// (least squares if out of reach), direction rows (along `b1`, `b2`) as well as the
 /// remaining freedom allows. Computed once per Jacobian and applied at every iteration.
-fn step_map(jac: &Jacobian, free: &[usize], b1: &Vector3<f64>, b2: &Vector3<f64>) -> StepMap {
+///
+/// `split`: solve in blocks where the structure allows ([`Split5`]). The compensation solve
+/// asks for it: it starts microns from its solution with the nominal machine's Jacobian,
+/// whose blocks are well conditioned outside the singular cone (held). Solves that may
+/// start far from their solution (inverse kinematics from a guess) keep the LU, whose
+/// pivoting is steadier there.
+fn step_map(
+    jac: &Jacobian,
+    free: &[usize],
+    b1: &Vector3<f64>,
+    b2: &Vector3<f64>,
+    split: bool,
+) -> StepMap {
     let row = |i: usize, k: usize| match i {
         0..=2 => jac.dp[k][i],
         3 => b1.dot(&jac.do_[k]),
@@ -484,7 +496,7 @@ fn step_map(jac: &Jacobian, free: &[usize], b1: &Vector3<f64>, b2: &Vector3<f64>
     };
     if free.len() == 5 {
         let m = std::array::from_fn(|i| std::array::from_fn(|j| row(i, free[j])));
-        if let Some(split) = Split5::new(&m) {
+        if split && let Some(split) = Split5::new(&m) {
             return StepMap::Split(split);
         }
         if let Some(lu) = Lu5::new(m) {
