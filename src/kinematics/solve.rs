@@ -41,7 +41,7 @@ impl SolveOptions {
     /// stopping tolerances a tenth of design/model.md's target residual (1e-6 mm, 1e-8
     /// rad). That is still a thousandth of the finest resolution a program is written in
     /// (0.1 µm), and it saves the default's third Newton step, which only takes the residual
-    /// from about 1e-8 to 1e-11 mm: a sixth of a block's work. The default's tighter
+    /// from about 1e-8 to 1e-11 mm: 7 % of a block's work. The default's tighter
     /// tolerances stay for the analysis tools, which difference solves.
     pub fn compensation() -> Self {
         SolveOptions {
