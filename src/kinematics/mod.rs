@@ -499,32 +499,7 @@ mod tests {
         }
 
         #[test]
-        fn carried_axis_directions_are_the_jacobians(
-            m in 0..MACHINES.len(),
-            u in proptest::collection::vec(0.0..1.0f64, MAX_AXES),
-        ) {
-            let (machine, errors) = fixture(MACHINES[m]);
-            for chain in 0..machine.tool_chains.len() {
-                let kin = Kinematics::new(&machine, &errors, chain).unwrap();
-                let q = axis_values(&machine, &kin, &u);
-                let angles = kin.angles(&q);
-                for model in [Model::Actual, Model::Nominal] {
-                    let mut dirs = [Vector3::zeros(); MAX_AXES];
-                    let (pose, beyond) = kin.axes_at(model, &q, 30.0, &angles, &mut dirs);
-                    let (want, jac) = kin.pose_and_jacobian(model, &q, 30.0);
-                    let (dp, da) = pose.deviation(&want);
-                    proptest::prop_assert!(dp < 1e-11 && da < 1e-14);
-                    proptest::prop_assert_eq!(beyond, jac.beyond);
-                    for (k, dir) in dirs.iter().enumerate().take(kin.len()) {
-                        let off = (dir - jac.axis_dir[k]).norm();
-                        proptest::prop_assert!(off < 1e-14, "{} {model:?} var {k}: {:?} {:?}", MACHINES[m], dir, jac.axis_dir[k]);
-                    }
-                }
-            }
-        }
-
-        #[test]
-        fn carried_jacobians_are_the_walked_ones(
+        fn carried_jacobians_and_axes_are_the_walked_ones(
             m in 0..MACHINES.len(),
             u in proptest::collection::vec(0.0..1.0f64, MAX_AXES),
             length in 0.0..150.0f64,
@@ -540,6 +515,16 @@ mod tests {
                     let (dp, da) = pose.deviation(&want);
                     proptest::prop_assert!(dp < 1e-11 && da < 1e-14);
                     proptest::prop_assert_eq!(jac.beyond, walked.beyond);
+                    // The plain pose with only the rotary axes' directions carried.
+                    let mut dirs = [Vector3::zeros(); MAX_AXES];
+                    let (pose, beyond) = kin.axes_at(model, &q, length, &angles, &mut dirs);
+                    let (dp, da) = pose.deviation(&want);
+                    proptest::prop_assert!(dp < 1e-11 && da < 1e-14);
+                    proptest::prop_assert_eq!(beyond, walked.beyond);
+                    for (k, dir) in dirs.iter().enumerate().take(kin.len()) {
+                        let off = (dir - walked.axis_dir[k]).norm();
+                        proptest::prop_assert!(off < 1e-14, "{} {model:?} var {k}: {:?} {:?}", MACHINES[m], dir, walked.axis_dir[k]);
+                    }
                     for k in 0..kin.len() {
                         let scale = walked.dp[k].norm().max(1.0);
                         let pairs = [

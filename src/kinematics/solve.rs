@@ -569,9 +569,17 @@ impl Kinematics {
         length: f64,
         options: &SolveOptions,
     ) -> Option<Solution> {
-        let (_, jac) = self.pose_and_jacobian(model, guess, length);
+        // One Jacobian at the guess serves the singular test and the solve's first steps.
+        let angles = self.angles(guess);
+        let (pose, jac) = self.jacobian_at(model, &guess[..self.len()], length, &angles);
         let held = self.singular_axes(target, &jac.axis_dir, options.singular_angle);
-        let sol = self.solve(model, target, guess, length, held, options);
+        let from = Start {
+            pose,
+            beyond: jac.beyond,
+            jac: &jac,
+            own: true,
+        };
+        let sol = self.solve_from(model, target, guess, length, held, options, from, &angles);
         let direction_ok = held != 0 || sol.direction_residual <= options.angle_tolerance.max(1e-9);
         (sol.position_residual <= options.position_tolerance.max(1e-9) && direction_ok)
             .then_some(sol)
