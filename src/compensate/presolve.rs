@@ -15,18 +15,38 @@
 //! lathe it does not start (turning and milling change with the spindle's M codes): the
 //! pass then solves every block itself.
 
+use std::cmp::Ordering;
+use std::time::Duration;
+
 use super::gcodes::{self, GCode};
 use super::{Compensator, INCH};
 use crate::kinematics::{MAX_AXES, Solution};
 use crate::model::AxisKind;
 use crate::nc;
 
-/// Without path splitting, the helper leaves one block in this many to the pass: per
-/// block the pass then does about what the helper does (callgrind, 100,000 blocks of the
-/// benchmark program on the AC trunnion: with one in seven, 1.35 G instructions on the
-/// pass's thread against 1.50 G on the helper's; with one in five, 1.45 G against
-/// 1.41 G).
-const PASS_SHARE: usize = 5;
+/// The share of the solves the pass keeps for itself at the start: the helper does the
+/// rest. [`balance`] then moves it chunk by chunk towards where neither thread waits for
+/// the other: how much of a block's work only the pass can do (reading, rewriting, the
+/// "after" pose, path splitting) depends on the program, the machine and the options, and
+/// a fixed share tuned on one of them left the other thread idle (callgrind, 10,000
+/// blocks of the benchmark program with one solve in five kept: 99.6 M instructions on the
+/// pass's thread, 77.0 M on the helper's).
+pub(super) const START_SHARE: f64 = 0.1;
+
+/// The most of the solves the pass keeps, and how far one chunk moves the share.
+const MOST_SHARE: f64 = 0.6;
+const SHARE_STEP: f64 = 0.01;
+
+/// The next chunk's share from this one's: up when the pass waited longer for the helper
+/// than the helper for the pass (the helper is behind), down in the other case.
+pub(super) fn balance(share: f64, pass_waited: Duration, helper_waited: Duration) -> f64 {
+    let share = match pass_waited.cmp(&helper_waited) {
+        Ordering::Greater => share + SHARE_STEP,
+        Ordering::Less => share - SHARE_STEP,
+        Ordering::Equal => share,
+    };
+    share.clamp(0.0, MOST_SHARE)
+}
 
 /// The inputs of one solve, bitwise.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -110,8 +130,9 @@ pub(super) struct Predictor {
     /// The pass predicted (index into `Compensator::passes`); `None`: the program has
     /// left what the prediction follows.
     pass: Option<usize>,
-    /// Lines read.
-    count: usize,
+    /// Solves owed to the pass: each solvable block adds the chunk's share, and the pass
+    /// keeps the block that brings it to one.
+    owed: f64,
 }
 
 impl Predictor {
@@ -126,17 +147,18 @@ impl Predictor {
             tool: None,
             words: Vec::new(),
             pass: comp.machine.lathe.is_none().then_some(comp.start),
-            count: 0,
+            owed: 0.0,
         }
     }
 
     /// Solve ahead for the lines of `chunk` (whose first line is number `before + 1`),
-    /// appending to `out`.
+    /// appending to `out`, leaving about `share` of the solves to the pass.
     pub(super) fn chunk(
         &mut self,
         comp: &Compensator<'_>,
         chunk: &[u8],
         before: usize,
+        share: f64,
         out: &mut Vec<Ahead>,
     ) {
         let tools_listed = comp.machine.tool_chains.iter().any(|c| !c.tools.is_empty());
@@ -200,18 +222,13 @@ impl Predictor {
                     self.length = *l;
                 }
             }
-            // Without path splitting the pass has less to do per block than the helper:
-            // it keeps one solve in `PASS_SHARE` to balance the two threads.
-            self.count += 1;
-            let share = pass.options.path.is_none() && self.count.is_multiple_of(PASS_SHARE);
-            if self.pass.is_some()
-                && moves
-                && !skip
-                && !share
-                && !self.incremental
-                && !self.tcp
-                && !self.arcs
+            if self.pass.is_some() && moves && !skip && !self.incremental && !self.tcp && !self.arcs
             {
+                self.owed += share;
+                if self.owed >= 1.0 {
+                    self.owed -= 1.0;
+                    continue;
+                }
                 let q = &self.nominal[..pass.kin.len()];
                 let solution = pass
                     .kin
@@ -276,4 +293,41 @@ fn words(content: &[u8], out: &mut Vec<(u8, f64)>) -> bool {
         }
     }
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_share_moves_towards_the_thread_that_waits() {
+        let ms = Duration::from_millis;
+        // The pass waited: the helper is behind, the pass keeps more.
+        assert!(balance(START_SHARE, ms(5), ms(0)) > START_SHARE);
+        // The helper waited: it takes more.
+        assert!(balance(START_SHARE, ms(0), ms(5)) < START_SHARE);
+        assert_eq!(balance(START_SHARE, ms(3), ms(3)), START_SHARE);
+        // Never below none, never above the most.
+        assert_eq!(balance(0.0, ms(0), ms(5)), 0.0);
+        assert_eq!(balance(MOST_SHARE, ms(5), ms(0)), MOST_SHARE);
+    }
+
+    #[test]
+    fn the_helper_leaves_the_share_of_the_solves_to_the_pass() {
+        use crate::model::{error_file, machine_file};
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+        let machine = machine_file::load(&root.join("ac_trunnion.machine.toml")).expect("fixture");
+        let errors =
+            error_file::load(&root.join("ac_trunnion.errors.toml"), &machine).expect("fixture");
+        let comp = Compensator::new(&machine, &errors, super::super::Options::default())
+            .expect("compensator");
+        let program: String = (0..100)
+            .map(|i| format!("G1 X{i}.5 Y2 Z3 A-{} C{i}\n", i % 40))
+            .collect();
+        for (share, solved) in [(0.0, 100), (0.25, 75), (0.5, 50)] {
+            let mut ahead = Vec::new();
+            Predictor::new(&comp).chunk(&comp, program.as_bytes(), 0, share, &mut ahead);
+            assert_eq!(ahead.len(), solved, "share {share}");
+        }
+    }
 }

@@ -9,7 +9,7 @@
 
 use std::io::{ErrorKind, Read, Write};
 
-use super::presolve::{Ahead, Predictor};
+use super::presolve::{Ahead, Predictor, START_SHARE, balance};
 use super::{Compensator, State, Summary};
 use crate::diag::{Diagnostic, Error};
 use crate::nc::{self, Edit, Token, TokenKind};
@@ -165,20 +165,31 @@ impl Compensator<'_> {
         pass: &mut Run<'_, '_>,
     ) -> crate::Result<()> {
         use std::sync::mpsc::sync_channel;
-        type ToHelper = (Vec<u8>, usize, usize, Vec<Ahead>);
+        use std::time::{Duration, Instant};
+        // A chunk to read ahead, with the share of its solves the pass keeps; and back, with
+        // how long the helper waited for it.
+        type ToHelper = (Vec<u8>, usize, usize, Vec<Ahead>, f64);
+        type ToPass = (Vec<u8>, usize, usize, Vec<Ahead>, Duration);
         std::thread::scope(|scope| {
             let (to_helper, work) = sync_channel::<ToHelper>(1);
-            let (to_pass, done) = sync_channel::<ToHelper>(1);
+            let (to_pass, done) = sync_channel::<ToPass>(1);
             scope.spawn(move || {
                 let mut predictor = Predictor::new(self);
-                for (bytes, before, offset, mut ahead) in work {
+                let mut idle_since = Instant::now();
+                for (bytes, before, offset, mut ahead, share) in work {
+                    let waited = idle_since.elapsed();
                     ahead.clear();
-                    predictor.chunk(self, &bytes, before, &mut ahead);
-                    if to_pass.send((bytes, before, offset, ahead)).is_err() {
+                    predictor.chunk(self, &bytes, before, share, &mut ahead);
+                    idle_since = Instant::now();
+                    if to_pass
+                        .send((bytes, before, offset, ahead, waited))
+                        .is_err()
+                    {
                         break;
                     }
                 }
             });
+            let mut share = START_SHARE;
             let mut spare: Vec<(Vec<u8>, Vec<Ahead>)> = Vec::new();
             let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
             let mut in_flight = 0;
@@ -194,7 +205,10 @@ impl Compensator<'_> {
                             let (mut bytes, ahead) = spare.pop().unwrap_or_default();
                             bytes.clear();
                             bytes.extend_from_slice(chunk);
-                            if to_helper.send((bytes, before, offset, ahead)).is_err() {
+                            if to_helper
+                                .send((bytes, before, offset, ahead, share))
+                                .is_err()
+                            {
                                 break;
                             }
                             in_flight += 1;
@@ -205,11 +219,13 @@ impl Compensator<'_> {
                 if in_flight == 0 {
                     return Ok(());
                 }
-                let Ok((bytes, before, offset, ahead)) = done.recv() else {
+                let asked = Instant::now();
+                let Ok((bytes, before, offset, ahead, helper_waited)) = done.recv() else {
                     // The helper is gone (it cannot fail; this is a panic, which the
                     // scope passes on).
                     return Ok(());
                 };
+                share = balance(share, asked.elapsed(), helper_waited);
                 in_flight -= 1;
                 let spent = pass.ahead(ahead);
                 let go_on = pass.chunk(&bytes, before, offset, input_name, &mut out);
