@@ -179,9 +179,17 @@ impl Angles {
 
 /// sin d and cos d by their series, for |d| ≤ [`SERIES_STEP`].
 fn small_sin_cos(d: f64) -> (f64, f64) {
+    // The coefficients as reciprocals: a chain of divisions (a dozen cycles each, one
+    // waiting for the other) cost more time here than all the rest of an angle update.
     let dd = d * d;
-    let s = d * (1.0 - dd / 6.0 * (1.0 - dd / 20.0 * (1.0 - dd / 42.0 * (1.0 - dd / 72.0))));
-    let c = 1.0 - dd / 2.0 * (1.0 - dd / 12.0 * (1.0 - dd / 30.0 * (1.0 - dd / 56.0)));
+    let s = d
+        * (1.0
+            - dd * (1.0 / 6.0)
+                * (1.0
+                    - dd * (1.0 / 20.0) * (1.0 - dd * (1.0 / 42.0) * (1.0 - dd * (1.0 / 72.0)))));
+    let c = 1.0
+        - dd * 0.5
+            * (1.0 - dd * (1.0 / 12.0) * (1.0 - dd * (1.0 / 30.0) * (1.0 - dd * (1.0 / 56.0))));
     (s, c)
 }
 
@@ -193,8 +201,9 @@ pub(super) fn small_rotation(e: &Vector3<f64>) -> M3 {
         return M3::from_matrix(Rotation3::new(*e).matrix());
     }
     // sin θ / θ and (1 − cos θ) / θ², θ² = nn.
-    let a = 1.0 - nn / 6.0 * (1.0 - nn / 20.0 * (1.0 - nn / 42.0));
-    let b = 0.5 * (1.0 - nn / 12.0 * (1.0 - nn / 30.0 * (1.0 - nn / 56.0)));
+    // Reciprocal coefficients, as in `small_sin_cos`: no chain of divisions.
+    let a = 1.0 - nn * (1.0 / 6.0) * (1.0 - nn * (1.0 / 20.0) * (1.0 - nn * (1.0 / 42.0)));
+    let b = 0.5 * (1.0 - nn * (1.0 / 12.0) * (1.0 - nn * (1.0 / 30.0) * (1.0 - nn * (1.0 / 56.0))));
     // I + a·[e]× + b·[e]×², with [e]×² = e·eᵀ − θ²·I.
     let (x, y, z) = (e.x, e.y, e.z);
     let d = 1.0 - nn * b;

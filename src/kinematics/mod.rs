@@ -44,7 +44,8 @@ pub fn angle_between(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
         // series to the 9th power is exact there (the next term is below 10⁻²⁰·t).
         let t = y / x;
         let tt = t * t;
-        return t * (1.0 - tt * (1.0 / 3.0 - tt * (1.0 / 5.0 - tt * (1.0 / 7.0 - tt / 9.0))));
+        return t
+            * (1.0 - tt * (1.0 / 3.0 - tt * (1.0 / 5.0 - tt * (1.0 / 7.0 - tt * (1.0 / 9.0)))));
     }
     y.atan2(x)
 }

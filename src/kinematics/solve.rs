@@ -366,7 +366,8 @@ impl Split5 {
         let [a, b] = [m[3][turning[0]], m[3][turning[1]]];
         let [c, d] = [m[4][turning[0]], m[4][turning[1]]];
         let det = a * d - b * c;
-        if !Self::regular(det, a.hypot(c) * b.hypot(d)) {
+        // Jacobian entries are far from overflow: no `hypot` (a library call) needed.
+        if !Self::regular(det, ((a * a + c * c) * (b * b + d * d)).sqrt()) {
             return None;
         }
         let d_inv = [[d / det, -b / det], [-c / det, a / det]];
