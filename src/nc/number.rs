@@ -28,16 +28,13 @@ pub fn scaled(value: f64, decimals: u8) -> Option<i64> {
         return None;
     }
     // `x.round()` without the library call it is on targets without SSE4.1: below 1e14 the
-    // truncation is exact and so is the fraction left.
+    // truncation is exact and so is the fraction left. Without branches too: whether a
+    // written digit rounds up is a coin toss, and a mispredicted branch on it cost more
+    // than the rest of the rounding (a time profile put this function at 40 % of the
+    // rewriting of a block's words).
     let t = x as i64 as f64;
     let f = x - t;
-    let r = if f >= 0.5 {
-        t + 1.0
-    } else if f <= -0.5 {
-        t - 1.0
-    } else {
-        t
-    };
+    let r = t + f64::from(u8::from(f >= 0.5)) - f64::from(u8::from(f <= -0.5));
     ((x - r).abs() < 0.5 - 1e-6).then_some(r as i64)
 }
 
