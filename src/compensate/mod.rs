@@ -553,8 +553,17 @@ impl<'m> Pass<'m> {
         }
         let previous = state.nominal;
         let start_known = state.programmed & !state.unknown;
-        let units =
-            self.advance_nominal(line, tokens, &axis_words, optional, state, summary, at)?;
+        let mut units = [0i128; MAX_AXES];
+        self.advance_nominal(
+            line,
+            tokens,
+            &axis_words,
+            optional,
+            state,
+            summary,
+            at,
+            &mut units,
+        )?;
         if state.unknown & !self.spindle != 0 {
             // The pose cannot be evaluated: the block is written as it is, and what the
             // machine is told is what the program says.
@@ -598,8 +607,8 @@ impl<'m> Pass<'m> {
         // place; the direction error it would have fixed is reported).
         let mut hold = self.hold;
         let mut at_limit = 0u32;
-        let sol = loop {
-            let sol = state
+        let solve = |hold: u32, state: &mut State| {
+            state
                 .presolved
                 .take(
                     line.number,
@@ -615,7 +624,11 @@ impl<'m> Pass<'m> {
                         hold,
                         &self.options.solve,
                     )
-                });
+                })
+        };
+        // Solved in place, not moved out of a loop: a solution is 440 bytes.
+        let mut sol = solve(hold, state);
+        loop {
             // Only rotary axes: holding one costs direction, never position.
             let past = (0..n).find(|&v| {
                 hold & (1 << v) == 0
@@ -632,10 +645,11 @@ impl<'m> Pass<'m> {
                 Some(v) if !self.options.allow_limit_violations => {
                     hold |= 1 << v;
                     at_limit |= 1 << v;
+                    sol = solve(hold, state);
                 }
-                _ => break sol,
+                _ => break,
             }
-        };
+        }
         if at_limit != 0 && sol.position_residual > 1e-6 {
             let v = at_limit.trailing_zeros() as usize;
             let col = axis_words[v].map_or(0, |i| tokens[i].span.start);
@@ -769,9 +783,10 @@ impl<'m> Pass<'m> {
     }
 
     /// Follow a G0/G1 block's axis words: `state.nominal` (and its exact twin) become the
-    /// block's programmed end, absolute or incremental, in mm and degrees. Returns each G91
-    /// word's increment exactly (units). A programmed value outside the travel is refused
-    /// unless limit violations are allowed.
+    /// block's programmed end, absolute or incremental, in mm and degrees. Writes each G91
+    /// word's increment exactly (units) into `units` (zeros elsewhere; an out-parameter,
+    /// because 144 bytes returned in a `Result` are copied twice). A programmed value outside
+    /// the travel is refused unless limit violations are allowed.
     #[allow(clippy::too_many_arguments)]
     fn advance_nominal(
         &self,
@@ -782,10 +797,11 @@ impl<'m> Pass<'m> {
         state: &mut State,
         summary: &mut Summary,
         at: &dyn Fn(usize, String) -> Diagnostic,
-    ) -> Result<[i128; MAX_AXES], Diagnostic> {
+        units: &mut [i128; MAX_AXES],
+    ) -> Result<(), Diagnostic> {
         let n = self.kin.len();
         // New nominal values; `units[v]`: a G91 word's value exactly.
-        let mut units = [0i128; MAX_AXES];
+        *units = [0i128; MAX_AXES];
         for (v, word) in axis_words.iter().enumerate().take(n) {
             let Some(i) = *word else { continue };
             let t = &tokens[i];
@@ -856,7 +872,7 @@ impl<'m> Pass<'m> {
                 .with_code(TRAVEL_LIMIT));
             }
         }
-        Ok(units)
+        Ok(())
     }
 
     /// Count a compensated block (or inserted piece) and record what the model predicts for

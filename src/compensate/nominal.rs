@@ -233,6 +233,7 @@ impl Pass<'_> {
                     state,
                     summary,
                     at,
+                    &mut [0; MAX_AXES],
                 )?;
                 if state.rapid {
                     Shape::Rapid

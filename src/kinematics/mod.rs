@@ -77,7 +77,7 @@ pub struct Jacobian {
 }
 
 impl Jacobian {
-    fn zero(n: usize, beyond: bool) -> Self {
+    pub(crate) fn zero(n: usize, beyond: bool) -> Self {
         Jacobian {
             n,
             dp: [Vector3::zeros(); MAX_AXES],
@@ -321,6 +321,26 @@ impl Kinematics {
             return self.walk_jacobian(model, q, length, angles);
         }
         let mut jac = Jacobian::zero(self.len(), false);
+        let pose = self.jacobian_into(model, q, length, angles, &mut jac);
+        (pose, jac)
+    }
+
+    /// [`Kinematics::jacobian_at`] written into `jac`: a Jacobian is 650 bytes, and
+    /// returned it is copied (a time profile put that copy at 2 % of a compensation run).
+    pub(crate) fn jacobian_into(
+        &self,
+        model: Model,
+        q: &[f64],
+        length: f64,
+        angles: &Angles,
+        jac: &mut Jacobian,
+    ) -> Pose {
+        if self.turning.is_some() {
+            let pose;
+            (pose, *jac) = self.walk_jacobian(model, q, length, angles);
+            return pose;
+        }
+        *jac = Jacobian::zero(self.len(), false);
         let mut axes = chain::CarriedAxes {
             dirs: &mut jac.axis_dir,
             columns: Some(chain::Columns {
@@ -331,7 +351,7 @@ impl Kinematics {
         };
         let (pose, beyond) = self.carry::<true>(model, q, length, angles, Some(&mut axes));
         jac.beyond = beyond;
-        (pose, jac)
+        pose
     }
 
     /// The pose and Jacobian by products of the joints' transforms along each chain.

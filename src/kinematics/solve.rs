@@ -127,7 +127,8 @@ impl Kinematics {
         // real machine's axis lines are off by up to a few hundred micro-radians, which
         // would move the edge of the singular cone by that much.
         let angles = self.angles(q);
-        let (target, nominal) = self.jacobian_at(Model::Nominal, q, length, &angles);
+        let mut nominal = Jacobian::zero(self.len(), false);
+        let target = self.jacobian_into(Model::Nominal, q, length, &angles, &mut nominal);
         let singular =
             self.singular_axes(&target, &nominal.axis_dir, options.singular_angle) & !hold;
         // Newton's method with the nominal machine's Jacobian, which comes with the target
