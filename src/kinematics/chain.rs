@@ -195,10 +195,12 @@ fn small_sin_cos(d: f64) -> (f64, f64) {
 
 /// The rotation matrix whose rotation vector is `e` (Rodrigues' formula); below 1 mrad its
 /// coefficients by their series (exact in f64) instead of `sin`/`cos`.
-pub(super) fn small_rotation(e: &Vector3<f64>) -> M3 {
+/// Taken by value: the three angles come in registers, not stored by the caller and
+/// loaded back at once (a time profile showed the function waiting on that load).
+pub(super) fn small_rotation(e: Vector3<f64>) -> M3 {
     let nn = e.norm_squared();
     if nn > 1e-6 {
-        return M3::from_matrix(Rotation3::new(*e).matrix());
+        return M3::from_matrix(Rotation3::new(e).matrix());
     }
     // sin θ / θ and (1 − cos θ) / θ², θ² = nn.
     // Reciprocal coefficients, as in `small_sin_cos`: no chain of divisions.
@@ -298,7 +300,7 @@ impl Joint {
             let v = s.values;
             (
                 Vector3::new(v[0], v[1], v[2]),
-                small_rotation(&Vector3::new(v[3], v[4], v[5])),
+                small_rotation(Vector3::new(v[3], v[4], v[5])),
                 Vector3::new(slope[0], slope[1], slope[2]),
                 Vector3::new(slope[3], slope[4], slope[5]),
             )

@@ -594,7 +594,7 @@ mod tests {
             x in -1e-3..1e-3f64, y in -1e-3..1e-3f64, z in -1e-3..1e-3f64, scale in -12i32..1,
         ) {
             let v = Vector3::new(x, y, z) * 10f64.powi(scale);
-            let ours = chain::small_rotation(&v).to_matrix();
+            let ours = chain::small_rotation(v).to_matrix();
             let std = Rotation3::new(v).into_inner();
             for (a, b) in ours.iter().zip(std.iter()) {
                 proptest::prop_assert!((a - b).abs() <= 4.0 * f64::EPSILON, "{v:?}: {ours:?} {std:?}");
@@ -617,9 +617,6 @@ mod tests {
 
     #[test]
     fn no_rotation_is_the_identity() {
-        assert_eq!(
-            chain::small_rotation(&Vector3::zeros()),
-            chain::M3::IDENTITY
-        );
+        assert_eq!(chain::small_rotation(Vector3::zeros()), chain::M3::IDENTITY);
     }
 }
