@@ -327,6 +327,8 @@ impl Kinematics {
 
     /// [`Kinematics::jacobian_at`] written into `jac`: a Jacobian is 650 bytes, and
     /// returned it is copied (a time profile put that copy at 2 % of a compensation run).
+    /// `jac` comes from [`Jacobian::zero`] (or an earlier call) for these kinematics: every
+    /// entry a joint moves is written, and the others stay zero, so it is not cleared again.
     pub(crate) fn jacobian_into(
         &self,
         model: Model,
@@ -340,7 +342,7 @@ impl Kinematics {
             (pose, *jac) = self.walk_jacobian(model, q, length, angles);
             return pose;
         }
-        *jac = Jacobian::zero(self.len(), false);
+        debug_assert_eq!(jac.n, self.len());
         let mut axes = chain::CarriedAxes {
             dirs: &mut jac.axis_dir,
             columns: Some(chain::Columns {
