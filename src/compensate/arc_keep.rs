@@ -312,7 +312,7 @@ impl Pass<'_> {
                     if let TokenKind::Word(w) = &tokens[*i].kind {
                         edits.push(Edit {
                             at: w.value_span.clone(),
-                            text: text.clone(),
+                            text: text.clone().into(),
                         });
                     }
                 }
@@ -326,7 +326,7 @@ impl Pass<'_> {
         if !added.is_empty() {
             edits.push(Edit {
                 at: last..last,
-                text: added,
+                text: added.into(),
             });
         }
     }

@@ -211,7 +211,10 @@ impl Pass<'_> {
             let _ = write!(text, "{}{}", words.join(style.separator), ending);
         }
         if pieces > 1 {
-            edits.push(Edit { at: 0..0, text });
+            edits.push(Edit {
+                at: 0..0,
+                text: text.into(),
+            });
         }
         // The arc's own line: G1, no centre words, its end compensated.
         if let Some(i) = motion.arc_code {
@@ -238,7 +241,7 @@ impl Pass<'_> {
                 .unwrap_or(0);
             edits.push(Edit {
                 at: first..first,
-                text: style.letter(b'G') + "1" + style.separator,
+                text: (style.letter(b'G') + "1" + style.separator).into(),
             });
         }
         for i in motion.arc_words.iter().flatten() {
@@ -250,7 +253,7 @@ impl Pass<'_> {
                 .map_or(t.span.start, |p| tokens[p].span.start);
             edits.push(Edit {
                 at: start..t.span.end,
-                text: String::new(),
+                text: Vec::new(),
             });
         }
         if state.inverse_time
@@ -262,7 +265,7 @@ impl Pass<'_> {
             write_fixed(value * pieces as f64, decimals.max(3) + 1, &mut number);
             edits.push(Edit {
                 at: w.value_span.clone(),
-                text: number,
+                text: number.into(),
             });
         }
         state.nominal = end;

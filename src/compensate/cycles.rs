@@ -218,7 +218,7 @@ impl Pass<'_> {
                 if !same_text(old, r_value, d) {
                     edits.push(Edit {
                         at: span,
-                        text: text.clone(),
+                        text: text.clone().into(),
                     });
                     summary.words_changed += 1;
                 }
@@ -241,7 +241,7 @@ impl Pass<'_> {
                     let style = super::split::Style::of(line.content, tokens);
                     edits.push(Edit {
                         at: end..end,
-                        text: format!("{}{}{text}", style.separator, style.letter(b'R')),
+                        text: format!("{}{}{text}", style.separator, style.letter(b'R')).into(),
                     });
                     summary.words_added += 1;
                     cycle.r_written = text.parse().ok();

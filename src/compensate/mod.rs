@@ -197,7 +197,7 @@ struct State {
     /// Solutions worked out ahead by a helper thread.
     presolved: presolve::Presolved,
     /// Emptied texts of earlier edits, to write new ones in without allocating.
-    spare_texts: Vec<String>,
+    spare_texts: Vec<Vec<u8>>,
     /// The pieces of the move being checked for splitting, reused from block to block.
     pieces: Vec<crate::kinematics::path::Piece>,
 }
@@ -965,14 +965,14 @@ impl<'m> Pass<'m> {
                 let end = tokens[i].span.end;
                 Edit {
                     at: end..end,
-                    text: format!("{sep}{word}"),
+                    text: format!("{sep}{word}").into(),
                 }
             }
             None => {
                 let start = tokens[neighbour].span.start;
                 Edit {
                     at: start..start,
-                    text: format!("{word}{sep}"),
+                    text: format!("{word}{sep}").into(),
                 }
             }
         }

@@ -171,11 +171,17 @@ impl Pass<'_> {
             write_fixed(value / (1.0 - s_before), decimals.max(3) + 1, &mut number);
             edits.push(Edit {
                 at: w.value_span.clone(),
-                text: number,
+                text: number.into(),
             });
         }
         summary.note_split(line.number, pieces.len() - 1);
-        edits.insert(0, Edit { at: 0..0, text });
+        edits.insert(
+            0,
+            Edit {
+                at: 0..0,
+                text: text.into(),
+            },
+        );
     }
 
     /// N numbers for `count` blocks inserted before the current one: consecutive numbers

@@ -170,7 +170,7 @@ impl Pass<'_> {
                         write_fixed(value, d, &mut text);
                         edits.push(Edit {
                             at: span,
-                            text: text.clone(),
+                            text: text.clone().into(),
                         });
                         summary.words_changed += 1;
                     } else {

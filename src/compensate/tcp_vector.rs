@@ -134,7 +134,7 @@ impl Pass<'_> {
                         write_fixed(value, d, &mut text);
                         edits.push(Edit {
                             at: span,
-                            text: text.clone(),
+                            text: text.clone().into(),
                         });
                         summary.words_changed += 1;
                     }
@@ -177,7 +177,7 @@ impl Pass<'_> {
                     }
                     edits.push(Edit {
                         at: span,
-                        text: text.clone(),
+                        text: text.clone().into(),
                     });
                     summary.words_changed += 1;
                 }
@@ -260,7 +260,7 @@ impl Pass<'_> {
         }
         edits.push(Edit {
             at: last..last,
-            text,
+            text: text.into(),
         });
     }
 }

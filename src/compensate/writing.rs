@@ -4,7 +4,7 @@ use super::exact::{self, Position};
 use super::{Edit, Pass, State, Summary};
 use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
-use crate::nc::number::{Rounded, same_text, write_fixed_value};
+use crate::nc::number::{Rounded, same_text, write_fixed_value, write_scaled_bytes};
 use crate::nc::{self, Token, TokenKind, Value};
 
 /// The value and decimals of a token known to be a numeric word, and its value's span.
@@ -49,7 +49,7 @@ impl Pass<'_> {
                         state.written[v] = state.nominal_exact[v];
                     } else {
                         let mut text = state.spare_texts.pop().unwrap_or_default();
-                        state.emitted[v] = unit.to_mm(rounded.write(&mut text));
+                        state.emitted[v] = unit.to_mm(rounded.write_bytes(&mut text));
                         state.written[v] = Position::Decimal {
                             value,
                             decimals: d,
@@ -87,7 +87,7 @@ impl Pass<'_> {
                         } else {
                             state.unsettled &= !(1 << v);
                         }
-                        let mut text = state.spare_texts.pop().unwrap_or_default();
+                        let mut text = String::new();
                         state.emitted[v] = unit.to_mm(write_fixed_value(value, d, &mut text));
                         state.written[v] = Position::Decimal {
                             value,
@@ -181,7 +181,7 @@ impl Pass<'_> {
                     state.programmed |= bit;
                     if increment != units[v] {
                         let mut text = state.spare_texts.pop().unwrap_or_default();
-                        exact::write_digits(k, e, &mut text);
+                        write_scaled_bytes(k, e, &mut text);
                         edits.push(Edit {
                             at: number(&tokens[i]).2,
                             text,
@@ -190,7 +190,7 @@ impl Pass<'_> {
                     }
                 }
                 None if k != 0 => {
-                    let mut text = state.spare_texts.pop().unwrap_or_default();
+                    let mut text = String::new();
                     exact::write_digits(k, e, &mut text);
                     edits.push(self.insertion(line.content, tokens, axis_words, v, &text));
                     summary.words_added += 1;

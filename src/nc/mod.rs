@@ -91,7 +91,9 @@ impl Word {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Edit {
     pub at: Range<usize>,
-    pub text: String,
+    /// Bytes, not a `String`: the pass writes digits straight into it (ASCII, the NC text
+    /// around it is whatever the file holds).
+    pub text: Vec<u8>,
 }
 
 /// Append `line` to `out` with `edits` applied (sorted here; edits at the same place keep
@@ -101,7 +103,7 @@ pub fn emit_line(line: &Line<'_>, edits: &mut [Edit], out: &mut Vec<u8>) {
     let mut pos = 0;
     for e in edits.iter() {
         out.extend_from_slice(&line.content[pos..e.at.start]);
-        out.extend_from_slice(e.text.as_bytes());
+        out.extend_from_slice(&e.text);
         pos = e.at.end;
     }
     out.extend_from_slice(&line.content[pos..]);

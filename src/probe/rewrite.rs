@@ -839,7 +839,7 @@ impl Pass<'_, '_> {
                     let written = text.parse().unwrap_or(new_value);
                     edits.push(Edit {
                         at: w.value_span.clone(),
-                        text,
+                        text: text.into(),
                     });
                     (FeedEdit::Changed, written)
                 }
@@ -994,6 +994,6 @@ fn insert_word(content: &[u8], tokens: &[Token], letter: u8, number: &str) -> Ed
     let end = tokens.get(last).map_or(content.len(), |t| t.span.end);
     Edit {
         at: end..end,
-        text: format!("{}{letter}{number}", if packed { "" } else { " " }),
+        text: format!("{}{letter}{number}", if packed { "" } else { " " }).into(),
     }
 }
