@@ -410,7 +410,9 @@ pub(super) struct Carried<'a, 'b> {
 
 /// The per-variable vectors a pose evaluation carries: the rotary axes' directions (zero
 /// for linear axes) and, with `columns`, the Jacobian's columns d p / d q and d o / d q;
-/// bit k of `carried` set once variable k's are in.
+/// bit k of `carried` set once variable k's are in. Bit k of `turning` clear: variable k's
+/// direction and d o / d q are zero (a linear axis of the nominal machine) and are not
+/// turned with the joints.
 ///
 /// A joint's column is the velocity it gives the tip (or, for a workpiece joint, the
 /// opposite of the velocity it gives the part at the tip) in its parent's frame, and the
@@ -421,6 +423,7 @@ pub(super) struct CarriedAxes<'a> {
     pub dirs: &'a mut [Vector3<f64>; MAX_AXES],
     pub columns: Option<Columns<'a>>,
     pub carried: u32,
+    pub turning: u32,
 }
 
 /// d p / d q and d o / d q, entry per variable.
@@ -437,6 +440,8 @@ impl<'a> CarriedAxes<'a> {
             dirs,
             columns: None,
             carried: 0,
+            // Without columns only rotary axes are put.
+            turning: u32::MAX,
         }
     }
 
@@ -446,11 +451,14 @@ impl<'a> CarriedAxes<'a> {
         while bits != 0 {
             let k = bits.trailing_zeros() as usize;
             bits &= bits - 1;
-            self.dirs[k] = f(&self.dirs[k]);
             if let Some(c) = &mut self.columns {
                 c.dp[k] = f(&c.dp[k]);
+                if self.turning & (1 << k) == 0 {
+                    continue;
+                }
                 c.do_[k] = f(&c.do_[k]);
             }
+            self.dirs[k] = f(&self.dirs[k]);
         }
     }
 

@@ -350,6 +350,12 @@ impl Kinematics {
                 do_: &mut jac.do_,
             }),
             carried: 0,
+            // On the nominal machine a linear axis turns nothing: 12 of the 30 products
+            // a joint of a five-axis chain would take are of zeros.
+            turning: match model {
+                Model::Nominal => self.rotary,
+                Model::Actual => u32::MAX,
+            },
         };
         let (pose, beyond) = self.carry::<true>(model, q, length, angles, Some(&mut axes));
         jac.beyond = beyond;
