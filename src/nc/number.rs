@@ -156,14 +156,19 @@ fn small_digits(mut m: u64, negative: bool, decimals: usize) -> ([u8; 42], usize
     (buf, pos)
 }
 
-/// [`write_scaled`] appending bytes: the usual numbers are copied from the stack at once
-/// (a `String` takes them a character at a time, eleven instructions each).
+/// [`write_small`] appending bytes: copied from the stack at once (a `String` takes them a
+/// character at a time, eleven instructions each).
+fn write_small_bytes(m: u64, negative: bool, decimals: usize, out: &mut Vec<u8>) {
+    let (buf, pos) = small_digits(m, negative, decimals);
+    out.extend_from_slice(&buf[pos..]);
+}
+
+/// [`write_scaled`] appending bytes.
 pub fn write_scaled_bytes(mantissa: i128, decimals: u8, out: &mut Vec<u8>) {
     if let Ok(m) = u64::try_from(mantissa.unsigned_abs())
         && decimals <= 20
     {
-        let (buf, pos) = small_digits(m, mantissa < 0, usize::from(decimals));
-        out.extend_from_slice(&buf[pos..]);
+        write_small_bytes(m, mantissa < 0, usize::from(decimals), out);
         return;
     }
     let mut text = String::new();
@@ -238,8 +243,7 @@ impl Rounded {
     /// [`Rounded::write`] appending bytes.
     pub fn write_bytes(&self, out: &mut Vec<u8>) -> f64 {
         if let Some((n, value)) = self.exact() {
-            let (buf, pos) = small_digits(n.unsigned_abs(), n < 0, usize::from(self.decimals));
-            out.extend_from_slice(&buf[pos..]);
+            write_small_bytes(n.unsigned_abs(), n < 0, usize::from(self.decimals), out);
             return value;
         }
         let mut text = String::new();
