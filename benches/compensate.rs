@@ -80,6 +80,46 @@ fn bench(c: &mut Criterion) {
         b.iter(|| kin.compensate(black_box(&q), 95.3, 0, &opts))
     });
     group.finish();
+
+    // The kinematics of every block as the pass does it, without reading or writing a byte:
+    // the solve with the compensation options and the pose at the written (rounded) values.
+    // This is the floor under the end-to-end throughput (docs/performance.md).
+    let poses = program_axes(&src);
+    let solve = SolveOptions::compensation();
+    let mut group = c.benchmark_group("per block");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(poses.len() as u64));
+    group.bench_function(
+        "kinematics only: solve and the pose written, 100k blocks",
+        |b| {
+            b.iter(|| {
+                let mut worst = 0f64;
+                for q in &poses {
+                    let sol = kin.compensate(black_box(q), 95.3, 0, &solve);
+                    let written = sol.q.map(|x| (x * 1e4).round() / 1e4);
+                    let (after, _) = kin.pose_near(Model::Actual, &written, 95.3, &sol.angles);
+                    worst = worst.max(after.deviation(&sol.target).0);
+                }
+                worst
+            })
+        },
+    );
+    group.finish();
+}
+
+/// The X Y Z A C values of the program's G1 blocks (the generator writes all five in each).
+fn program_axes(src: &[u8]) -> Vec<[f64; 5]> {
+    let text = std::str::from_utf8(src).unwrap();
+    text.lines()
+        .filter(|l| l.contains(" G1 "))
+        .map(|l| {
+            let mut q = [0.0; 5];
+            for (k, w) in l.split(' ').skip(2).enumerate() {
+                q[k] = w[1..].parse().unwrap();
+            }
+            q
+        })
+        .collect()
 }
 
 criterion_group!(benches, bench);
