@@ -86,6 +86,7 @@ fn bench(c: &mut Criterion) {
     // This is the floor under the end-to-end throughput (docs/performance.md).
     let poses = program_axes(&src);
     let solve = SolveOptions::compensation();
+    let length = machine.tool.length;
     let mut group = c.benchmark_group("per block");
     group.sample_size(10);
     group.throughput(Throughput::Elements(poses.len() as u64));
@@ -95,9 +96,9 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 let mut worst = 0f64;
                 for q in &poses {
-                    let sol = kin.compensate(black_box(q), 95.3, 0, &solve);
+                    let sol = kin.compensate(black_box(q), length, 0, &solve);
                     let written = sol.q.map(|x| (x * 1e4).round() / 1e4);
-                    let (after, _) = kin.pose_near(Model::Actual, &written, 95.3, &sol.angles);
+                    let (after, _) = kin.pose_near(Model::Actual, &written, length, &sol.angles);
                     worst = worst.max(after.deviation(&sol.target).0);
                 }
                 worst
