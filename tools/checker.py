@@ -2,8 +2,8 @@
 """Independent outside checker for nccomp.
 
 Implements the machine and error model of the project's contract
-(/work/shared/design/model.md) from its text alone, in pure Python (standard
-library only), and uses it to check compensated NC programs:
+(../shared/design/model.md, beside the repository) from its text alone, in pure
+Python (standard library only), and uses it to check compensated NC programs:
 
   evaluate   compare a program and its compensated version pose by pose
   generate   write a random AC trunnion machine, error file and program
