@@ -18,6 +18,7 @@ pub mod kinematics;
 pub mod model;
 pub mod nc;
 pub mod probe;
+pub mod program;
 pub mod report;
 pub mod workpiece;
 

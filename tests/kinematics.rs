@@ -269,6 +269,7 @@ fn three_axis_rotary(rotary_first: bool) -> nccomp::model::Machine {
         resolution: Default::default(),
         tool: Default::default(),
         lathe: None,
+        codes: Default::default(),
     }
 }
 

@@ -12,12 +12,12 @@
 
 use super::exact::Unit;
 use super::split::Style;
-use super::words::BlockMotion;
 use super::{Edit, INCH, Pass, State};
 use crate::kinematics::path::PathTolerance;
 use crate::kinematics::{MAX_AXES, Model, angle_between};
 use crate::nc::number::{same_text, scaled, write_fixed};
 use crate::nc::{self, Token, TokenKind, Value};
+use crate::program::BlockMotion;
 use std::f64::consts::TAU;
 
 /// An arc in axis space: a (possibly spiral) circle in the plane of variables `va`, `vb`,
@@ -117,7 +117,7 @@ impl Pass<'_> {
         tol: &PathTolerance,
     ) -> Option<KeptArc> {
         let n = self.kin.len();
-        let length = state.length;
+        let length = state.modal.length;
         let solve = |s: f64| {
             self.kin.compensate(
                 &nominal.point(s, n)[..n],
@@ -136,7 +136,7 @@ impl Pass<'_> {
         // The end as it will be written.
         let mut end = end_solution.q;
         for (v, x) in end.iter_mut().enumerate().take(n) {
-            let unit = self.unit(v, state);
+            let unit = self.unit(v, &state.modal);
             let d = state.decimals[v].max(self.res_decimals(v, unit));
             if let Some(k) = scaled(unit.of_mm(*x), d) {
                 *x = unit.to_mm(k as f64 / 10f64.powi(d.into()));
@@ -162,10 +162,10 @@ impl Pass<'_> {
         };
         // Centres and radii are never diameters.
         let centre_unit = Unit {
-            inch: state.inch,
+            inch: state.modal.inch,
             diameter: false,
         };
-        let unit = if state.inch { INCH } else { 1.0 };
+        let unit = if state.modal.inch { INCH } else { 1.0 };
         let mut centre_words = Vec::new();
         let written_centre = if let Some(ri) = motion.arc_words[3] {
             let (old, decimals) = number(ri)?;
@@ -197,7 +197,7 @@ impl Pass<'_> {
                 (mx - ux * h, my - uy * h)
             }
         } else {
-            let origin = if state.arc_absolute {
+            let origin = if state.modal.arc_absolute {
                 (0.0, 0.0)
             } else {
                 plane(&start)

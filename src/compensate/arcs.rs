@@ -12,13 +12,13 @@
 use super::arc_keep::ArcPath;
 use super::exact::Position;
 use super::split::Style;
-use super::words::BlockMotion;
 use super::{Edit, INCH, Pass, State, Summary, axis_order};
 use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
 use crate::model::AxisKind;
 use crate::nc::number::{same_text, write_fixed};
 use crate::nc::{self, Token, TokenKind, Value};
+use crate::program::BlockMotion;
 use std::f64::consts::TAU;
 use std::fmt::Write;
 
@@ -66,7 +66,7 @@ impl Pass<'_> {
             })
             .unwrap_or(0);
         let refuse = |why: &str| Err(at(col, format!("this arc cannot be compensated: {why}")));
-        if state.incremental {
+        if state.modal.incremental {
             return refuse(
                 "arcs in incremental mode (G91) are not supported (program them in G90)",
             );
@@ -74,13 +74,13 @@ impl Pass<'_> {
         if motion.optional {
             return refuse("an optional block (/) with an arc is not supported");
         }
-        if state.tcp {
+        if state.modal.tcp {
             return refuse("arcs under tool-centre-point control (G43.4/G43.5) are not supported");
         }
         let m_or_t = tokens
             .iter()
             .find(|t| matches!(&t.kind, TokenKind::Word(w) if matches!(w.letter, b'M' | b'T')));
-        if state.inverse_time
+        if state.modal.inverse_time
             && !tokens
                 .iter()
                 .any(|t| matches!(&t.kind, TokenKind::Word(w) if w.letter == b'F'))
@@ -102,7 +102,7 @@ impl Pass<'_> {
         let ArcPath {
             r0, r1, sweep, end, ..
         } = path;
-        let Some((_, centre_letters)) = plane_letters(state.plane) else {
+        let Some((_, centre_letters)) = plane_letters(state.modal.plane) else {
             unreachable!("arc_path accepts only the three planes");
         };
         // Kept as an arc where what the controller makes of the compensated words stays
@@ -154,9 +154,9 @@ impl Pass<'_> {
         let mut text = String::new();
         for k in 1..pieces {
             let q = path.point(k as f64 / pieces as f64, n);
-            let sol = self
-                .kin
-                .compensate(&q[..n], state.length, self.hold, &self.options.solve);
+            let sol =
+                self.kin
+                    .compensate(&q[..n], state.modal.length, self.hold, &self.options.solve);
             self.check_piece(&q, &sol.q, col, at)?;
             let mut words: Vec<String> = Vec::new();
             if let Some(number) = &numbers[k - 1] {
@@ -177,7 +177,7 @@ impl Pass<'_> {
                 words.push(style.letter(b'G') + "1");
             }
             for &v in &order {
-                let unit = self.unit(v, state);
+                let unit = self.unit(v, &state.modal);
                 let value = unit.of_mm(sol.q[v]);
                 let emitted = unit.of_mm(state.emitted[v]);
                 let d = state.decimals[v].max(self.res_decimals(v, unit));
@@ -199,7 +199,7 @@ impl Pass<'_> {
                 && let TokenKind::Word(w) = &f.kind
                 && let Value::Number { value, decimals } = w.value
             {
-                if state.inverse_time {
+                if state.modal.inverse_time {
                     let mut number = String::new();
                     write_fixed(value * pieces as f64, decimals.max(3) + 1, &mut number);
                     words.push(style.letter(b'F') + &number);
@@ -256,7 +256,7 @@ impl Pass<'_> {
                 text: Vec::new(),
             });
         }
-        if state.inverse_time
+        if state.modal.inverse_time
             && let Some(f) = f_word
             && let TokenKind::Word(w) = &f.kind
             && let Value::Number { value, decimals } = w.value
@@ -269,9 +269,12 @@ impl Pass<'_> {
             });
         }
         state.nominal = end;
-        let sol = self
-            .kin
-            .compensate(&end[..n], state.length, self.hold, &self.options.solve);
+        let sol = self.kin.compensate(
+            &end[..n],
+            state.modal.length,
+            self.hold,
+            &self.options.solve,
+        );
         self.check_piece(&end, &sol.q, col, at)?;
         summary.note_arc(line.number, pieces - 1);
         self.write_positions(
@@ -298,12 +301,12 @@ impl Pass<'_> {
                 "the arc starts where an axis is at a place nccomp does not know (after G28, G30, G53, M19 or a change of tool chain)",
             );
         }
-        if state.diameter && state.arc_absolute {
+        if state.modal.diameter && state.modal.arc_absolute {
             return refuse(
                 "absolute arc centres (G90.1) in diameter mode (G7) are not supported (program the centre incrementally, G91.1)",
             );
         }
-        let Some((plane, centre_letters)) = plane_letters(state.plane) else {
+        let Some((plane, centre_letters)) = plane_letters(state.modal.plane) else {
             return refuse("arcs in a U/V/W plane (G17.1, G18.1, G19.1) are not supported");
         };
         let var = |letter: u8| {
@@ -325,13 +328,13 @@ impl Pass<'_> {
             },
             _ => 0.0,
         };
-        let mm = |x: f64| if state.inch { x * INCH } else { x };
+        let mm = |x: f64| if state.modal.inch { x * INCH } else { x };
         // Start and end of the move, nominal.
         let start = state.nominal;
         let mut end = state.nominal;
         for v in 0..n {
             if let Some(i) = axis_words[v] {
-                end[v] = self.unit(v, state).to_mm(number(i));
+                end[v] = self.unit(v, &state.modal).to_mm(number(i));
             }
         }
         let (a0, b0, a1, b1) = (start[va], start[vb], end[va], end[vb]);
@@ -364,7 +367,7 @@ impl Pass<'_> {
             }
             let off_a = ci.map_or(0.0, |i| mm(number(i)));
             let off_b = cj.map_or(0.0, |i| mm(number(i)));
-            if state.arc_absolute {
+            if state.modal.arc_absolute {
                 (off_a, off_b)
             } else {
                 (a0 + off_a, b0 + off_b)

@@ -9,13 +9,13 @@
 //! hole's axis than the path tolerance, the cycle is refused (program it as G0/G1 moves).
 
 use super::exact::Unit;
-use super::words::BlockMotion;
 use super::{Edit, Pass, State, Summary};
 use crate::diag::Diagnostic;
 use crate::kinematics::Model;
 use crate::model::AxisKind;
 use crate::nc::number::{same_text, write_fixed};
 use crate::nc::{self, Token, TokenKind, Value};
+use crate::program::BlockMotion;
 
 /// The modal state of an active cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -69,16 +69,16 @@ impl Pass<'_> {
         let (Some(vx), Some(vy), Some(vz)) = (var(b'X'), var(b'Y'), var(b'Z')) else {
             return refuse("the machine has no linear X, Y and Z axes".into());
         };
-        if state.incremental {
+        if state.modal.incremental {
             return refuse(
                 "in incremental mode (G91) its R and Z are relative (program the cycle in G90)"
                     .into(),
             );
         }
-        if state.plane != 0 {
+        if state.modal.plane != 0 {
             return refuse("only cycles in the G17 plane (drilling along Z) are supported".into());
         }
-        if state.tcp {
+        if state.modal.tcp {
             return refuse(
                 "cycles under tool-centre-point control (G43.4/G43.5) are not supported".into(),
             );
@@ -127,7 +127,7 @@ impl Pass<'_> {
             _ => unreachable!("cycle words are words"),
         };
         // Z and R are never diameters; X may be (G7).
-        let zu = Unit::inch(state.inch);
+        let zu = Unit::inch(state.modal.inch);
         let mut cycle = state.cycle.unwrap_or(Cycle {
             bottom: None,
             r_plane: None,
@@ -146,7 +146,7 @@ impl Pass<'_> {
         };
         for v in [vx, vy] {
             if let Some(i) = axis_words[v] {
-                state.nominal[v] = self.unit(v, state).to_mm(number(i).0);
+                state.nominal[v] = self.unit(v, &state.modal).to_mm(number(i).0);
                 state.programmed |= 1 << v;
             }
             if state.programmed & (1 << v) == 0 {
@@ -168,7 +168,7 @@ impl Pass<'_> {
             q[vz] = z;
             let sol = self
                 .kin
-                .compensate(&q[..n], state.length, hold, &self.options.solve);
+                .compensate(&q[..n], state.modal.length, hold, &self.options.solve);
             (q, sol)
         };
         let (q_bottom, bottom_sol) = at_depth(bottom);
@@ -180,7 +180,7 @@ impl Pass<'_> {
         let mut at_r = r_sol.q;
         at_r[vx] = bottom_sol.q[vx];
         at_r[vy] = bottom_sol.q[vy];
-        let (reached, _) = self.kin.pose(Model::Actual, &at_r[..n], state.length);
+        let (reached, _) = self.kin.pose(Model::Actual, &at_r[..n], state.modal.length);
         let off = (reached.p - r_sol.target.p).norm();
         if off > tolerance || bottom_sol.position_residual > 1e-6 {
             return refuse(format!(
@@ -250,7 +250,7 @@ impl Pass<'_> {
         }
         let (ap, ad) = self
             .kin
-            .pose(Model::Actual, &state.emitted[..n], state.length)
+            .pose(Model::Actual, &state.emitted[..n], state.modal.length)
             .0
             .deviation(&bottom_sol.target);
         summary.record(
@@ -265,7 +265,8 @@ impl Pass<'_> {
         // Where the cycle leaves the tool: the R plane (G99) or the initial level (G98;
         // R when that is higher).
         let r_emitted = cycle.r_written.map_or(r_sol.q[vz], |r| zu.to_mm(r));
-        let (z_nominal, z_emitted) = if state.retract_to_initial && cycle.initial.0 > r_plane {
+        let (z_nominal, z_emitted) = if state.modal.retract_to_initial && cycle.initial.0 > r_plane
+        {
             cycle.initial
         } else {
             (r_plane, r_emitted)

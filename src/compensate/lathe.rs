@@ -17,20 +17,10 @@
 //! execution.
 
 use super::exact::{Position, Unit};
-use super::{Compensator, State, code_text};
+use super::{Compensator, State};
 use crate::diag::Diagnostic;
-use crate::nc::{self, Token, TokenKind, Value};
-
-/// What the lathe's spindle does.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Spindle {
-    /// Stopped where the program has not positioned it (at the start, after M5).
-    Free,
-    /// Turning, since M3 or M4 at this line.
-    Turning(usize),
-    /// Positioned (M19 or a C word): an axis like any other.
-    Positioned,
-}
+use crate::nc::{self, Token};
+use crate::program::{BlockMotion, Motion, Spindle};
 
 /// What the program last told one machine axis, kept while its tool chain is not active.
 #[derive(Debug, Clone, Copy)]
@@ -105,146 +95,35 @@ impl Parked {
 }
 
 impl Compensator<'_> {
-    /// Follow the block's T word and spindle codes: switch `state` to the pass the block
-    /// runs in.
-    pub(super) fn select(
+    /// Read one block with the program's reader and follow what it changed: the tool chain
+    /// and spindle mode (which pass the block runs in, the axes that become unknown), tool-
+    /// centre-point control switched on, a cycle ended. The block's motion, if it moves.
+    pub(super) fn read(
         &self,
         line: &nc::Line<'_>,
         tokens: &[Token],
         state: &mut State,
         summary: &mut super::Summary,
         at: &dyn Fn(usize, String) -> Diagnostic,
-    ) -> Result<(), Diagnostic> {
-        let lathe = self.machine.lathe;
-        let tools_listed = self.machine.tool_chains.iter().any(|c| !c.tools.is_empty());
-        if lathe.is_none() && !tools_listed {
-            return Ok(());
-        }
-        let optional = tokens
-            .iter()
-            .find(|t| t.kind != TokenKind::Space)
-            .is_some_and(|t| t.kind == TokenKind::BlockDelete);
-        let current = self.passes[state.pass].chain;
-        let mut chain = current;
-        let mut spindle = state.spindle;
-        // The first word that changes something, for messages.
-        let mut cause: Option<&Token> = None;
-        let mut spindle_word: Option<&Token> = None;
-        let spindle_letter = lathe.map(|l| self.machine.axes[l.spindle].word as u8);
-        for t in tokens {
-            let TokenKind::Word(w) = &t.kind else {
-                continue;
-            };
-            // Expressions and parameters are refused when the block is read.
-            let Value::Number { value, .. } = w.value else {
-                continue;
-            };
-            match w.letter {
-                b'T' if tools_listed => {
-                    if value < 0.0 || value.fract() != 0.0 || value > f64::from(u32::MAX) {
-                        return Err(at(
-                            t.span.start,
-                            format!(
-                                "`{}`: expected a tool number (a whole number from 0)",
-                                code_text(line.content, t)
-                            ),
-                        ));
-                    }
-                    let number = value as u32;
-                    if number == 0 {
-                        continue;
-                    }
-                    chain = self.machine.chain_of_tool(number).ok_or_else(|| {
-                        let lists: Vec<String> = self
-                            .machine
-                            .tool_chains
-                            .iter()
-                            .filter(|c| !c.tools.is_empty())
-                            .map(|c| {
-                                let tools: Vec<String> =
-                                    c.tools.iter().map(|t| format!("T{t}")).collect();
-                                format!("`{}` {}", c.name, tools.join(" "))
-                            })
-                            .collect();
-                        at(
-                            t.span.start,
-                            format!(
-                                "T{number} selects no tool chain: expected a tool the machine file lists in a chain's `tools` ({})",
-                                lists.join("; ")
-                            ),
-                        )
-                    })?;
-                    if chain != current {
-                        cause.get_or_insert(t);
-                    }
-                }
-                b'M' if lathe.is_some() => {
-                    let before = spindle;
-                    match (value * 10.0).round() as i64 {
-                        30 | 40 => spindle = Spindle::Turning(line.number),
-                        // Stopping a positioned spindle leaves it where it is.
-                        50 if spindle != Spindle::Positioned => spindle = Spindle::Free,
-                        190 => spindle = Spindle::Positioned,
-                        _ => {}
-                    }
-                    if spindle != before {
-                        cause.get_or_insert(t);
-                    }
-                }
-                letter if Some(letter) == spindle_letter => spindle_word = Some(t),
-                _ => {}
-            }
-        }
-        if let Some(t) = spindle_word {
-            if let Spindle::Turning(on) = spindle {
-                let letter = spindle_letter.map_or('C', char::from);
-                return Err(at(
-                    t.span.start,
-                    format!(
-                        "{letter} positions the spindle, but it turns (M3/M4 at line {on}): expected M5 or M19 before the spindle is positioned"
-                    ),
-                ));
-            }
-            if spindle != Spindle::Positioned {
-                cause.get_or_insert(t);
-                spindle = Spindle::Positioned;
-            }
-        }
-        let Some(cause) = cause else {
-            return Ok(());
-        };
-        let what = code_text(line.content, cause);
-        if optional {
-            return Err(at(
-                cause.span.start,
-                format!(
-                    "{what} in an optional block (/) cannot be compensated: whether the block runs would decide which tool chain or spindle mode every later block is compensated in (move it out of the optional block)"
-                ),
-            ));
-        }
-        let positioned = spindle == Spindle::Positioned;
-        let was_positioned = state.spindle == Spindle::Positioned;
-        if state.tcp && (chain != current || positioned != was_positioned) {
-            return Err(at(
-                cause.span.start,
-                format!(
-                    "{what} under tool-centre-point control (G43.4/G43.5) cannot be compensated: cancel it (G49) first"
-                ),
-            ));
-        }
-        if chain != current && self.switch_chain(state, chain) {
+    ) -> Result<Option<BlockMotion>, Diagnostic> {
+        let before = (state.modal.chain, state.modal.spindle);
+        let was_tcp = state.modal.tcp.then_some(state.modal.tcp_vector);
+        let read = self.reader.read(line, tokens, &mut state.modal, at);
+        // The chain and spindle mode change even when a later word of the block is refused.
+        if state.modal.chain != before.0 && self.switch_chain(state, state.modal.chain) {
             summary.lathe_unknown = true;
         }
-        let pass = chain
-            + if lathe.is_some() && !positioned {
+        let pass = state.modal.chain
+            + if state.modal.turning(self.machine) {
                 self.machine.tool_chains.len()
             } else {
                 0
             };
-        if positioned && !was_positioned {
+        if state.modal.spindle == Spindle::Positioned && before.1 != Spindle::Positioned {
             // Until a C word says where, the spindle stands at an angle nccomp does not
             // know (M19's orientation is the machine's own).
             let p = &self.passes[pass];
+            let lathe = self.machine.lathe;
             if let Some(v) = lathe.and_then(|l| p.kin.axes().iter().position(|&i| i == l.spindle)) {
                 state.unknown |= 1 << v;
                 state.uncertain &= !(1 << v);
@@ -252,9 +131,20 @@ impl Compensator<'_> {
                 summary.lathe_unknown = true;
             }
         }
-        state.spindle = spindle;
         state.pass = pass;
-        Ok(())
+        let motion = read?;
+        if state.modal.motion != Some(Motion::Cycle) {
+            state.cycle = None;
+        }
+        if state.modal.tcp
+            && was_tcp != Some(state.modal.tcp_vector)
+            && let Err(d) = self.passes[pass].enter_tcp(state, at)
+        {
+            state.modal.tcp = false;
+            state.modal.tcp_vector = false;
+            return Err(d);
+        }
+        Ok(motion)
     }
 
     /// Park the axes of the active chain and bring in those of `chain`. True when an axis

@@ -9,7 +9,6 @@ mod arc_keep;
 mod arcs;
 mod cycles;
 mod exact;
-mod gcodes;
 mod lathe;
 mod nominal;
 mod presolve;
@@ -18,7 +17,6 @@ mod stream;
 mod summary;
 mod tcp;
 mod tcp_vector;
-mod words;
 mod writing;
 
 pub use arc_keep::ArcPath;
@@ -30,18 +28,14 @@ use crate::kinematics::{Kinematics, MAX_AXES, Model, SolveOptions};
 use crate::model::{AxisKind, ErrorModel, Machine};
 use crate::nc::number::{decimals_for, scaled};
 use crate::nc::{self, Edit, Token, TokenKind, Value};
+use crate::program::{BlockMotion, INCH, Modal, MoveKind, Reader};
 use exact::{Position, Unit};
-use gcodes::GCode;
 use stream::Run;
-use words::{BlockMotion, MoveKind};
 
 /// The code of diagnostics about travel limits ([`Diagnostic::code`]): a block refused
 /// because it would leave an axis's travel, or (with `allow_limit_violations`) a
 /// violation written anyway.
 pub const TRAVEL_LIMIT: &str = "travel_limit";
-
-/// Millimetres per inch.
-const INCH: f64 = 25.4;
 
 /// How the pass runs.
 #[derive(Debug, Clone, PartialEq)]
@@ -88,6 +82,8 @@ impl Default for Options {
 #[derive(Debug, Clone)]
 pub struct Compensator<'m> {
     machine: &'m Machine,
+    /// Reads the program's blocks.
+    reader: Reader<'m>,
     /// The milling pass of every tool chain, in the machine file's order, then (on a
     /// lathe) the turning pass of every chain.
     passes: Vec<Pass<'m>>,
@@ -126,45 +122,25 @@ struct Pass<'m> {
     write_order: Vec<usize>,
 }
 
-/// The program's modal state as the pass follows it.
+/// The pass's state between blocks: the program's modal state (as the reader follows it)
+/// and what the pass keeps of its own.
 #[derive(Debug, Clone)]
 struct State {
-    inch: bool,
-    /// G7: X words are diameters (on a lathe).
-    diameter: bool,
-    /// The pass blocks go through (index into [`Compensator::passes`]).
+    modal: Modal,
+    /// The pass blocks go through (index into [`Compensator::passes`]): the modal tool
+    /// chain, milling or turning.
     pass: usize,
-    /// What the lathe's spindle does.
-    spindle: lathe::Spindle,
     /// What the program last told each machine axis, kept while its tool chain is not
     /// active (by machine axis index).
     parked: Vec<Option<lathe::Parked>>,
-    /// G91: axis words are increments.
-    incremental: bool,
-    motion: Option<GCode>,
-    /// The motion mode is G0 (rapid), not G1.
-    rapid: bool,
-    /// G93: F words are inverse times.
-    inverse_time: bool,
-    /// Arc plane: 0 G17 (X, Y), 1 G18 (Z, X), 2 G19 (Y, Z), 3 a U/V/W plane.
-    plane: u8,
-    /// G90.1: arc centres are absolute.
-    arc_absolute: bool,
-    /// The last arc code was G2 (clockwise).
-    clockwise: bool,
-    /// G43.4 or G43.5 is active: X, Y, Z words are the tool tip in the workpiece frame.
-    tcp: bool,
-    /// G43.5: the tool direction is programmed as a vector (I, J, K), not by rotary words.
-    tcp_vector: bool,
     /// Under G43.5: the tool vector as programmed, and as written (not normalised).
     vector_nominal: [f64; 3],
     vector_written: [f64; 3],
     /// In TCP mode: the programmed tip, and the tip as written (mm).
     tip_nominal: [f64; 3],
     tip_written: [f64; 3],
-    /// An active drilling cycle, and where cycles retract to (G98: the initial level).
+    /// An active drilling cycle.
     cycle: Option<cycles::Cycle>,
-    retract_to_initial: bool,
     /// The last N number seen and its digits (for numbering inserted blocks).
     last_n: Option<(u64, usize)>,
     /// Programmed (nominal) axis values, mm and degrees.
@@ -182,9 +158,6 @@ struct State {
     programmed: u32,
     /// Decimals of the last word written for each variable.
     decimals: [u8; MAX_AXES],
-    length: f64,
-    tool: Option<u32>,
-    work_offset: Option<i64>,
     /// Bit k: variable k was last set by an optional (block delete) block, at the line in
     /// `optional_line[k]`, so its programmed value depends on the block delete switch.
     uncertain: u32,
@@ -244,6 +217,7 @@ impl<'m> Compensator<'m> {
         }
         Ok(Compensator {
             machine,
+            reader: Reader::new(machine),
             passes,
             start,
             zero_model: errors.is_zero(),
@@ -326,23 +300,11 @@ impl<'m> Compensator<'m> {
             };
         let first = &self.passes[pass];
         let mut state = State {
-            inch: false,
-            diameter: lathe.is_some_and(|l| l.diameter),
+            modal: Modal::start(self.machine, self.start),
             pass,
-            spindle: lathe::Spindle::Free,
             parked: vec![None; self.machine.axes.len()],
-            incremental: false,
-            motion: None,
-            rapid: false,
-            inverse_time: false,
             last_n: None,
             cycle: None,
-            retract_to_initial: true,
-            plane: 0,
-            arc_absolute: false,
-            clockwise: true,
-            tcp: false,
-            tcp_vector: false,
             vector_nominal: [0.0, 0.0, 1.0],
             vector_written: [0.0, 0.0, 1.0],
             tip_nominal: [0.0; 3],
@@ -354,9 +316,6 @@ impl<'m> Compensator<'m> {
             unknown: 0,
             programmed: 0,
             decimals: [0; MAX_AXES],
-            length: self.machine.tool.length,
-            tool: None,
-            work_offset: None,
             uncertain: 0,
             unsettled: 0,
             optional_line: [0; MAX_AXES],
@@ -464,11 +423,11 @@ impl<'m> Pass<'m> {
     }
 
     /// What variable `var`'s words are in, in the program's current modes.
-    fn unit(&self, var: usize, state: &State) -> Unit {
+    fn unit(&self, var: usize, modal: &Modal) -> Unit {
         let linear = self.is_linear(var);
         Unit {
-            inch: state.inch && linear,
-            diameter: state.diameter && linear && self.letter(var) == b'X',
+            inch: modal.inch && linear,
+            diameter: modal.diameter && linear && self.letter(var) == b'X',
         }
     }
 
@@ -484,19 +443,18 @@ impl<'m> Pass<'m> {
         }
     }
 
-    /// One block: follow its modal words, and if it moves, compensate it.
+    /// One block that moves: compensate it.
+    #[allow(clippy::too_many_arguments)]
     fn block(
         &self,
         line: &nc::Line<'_>,
         tokens: &[Token],
+        motion: BlockMotion,
         state: &mut State,
         edits: &mut Vec<Edit>,
         summary: &mut Summary,
         at: &dyn Fn(usize, String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
-        let Some(motion) = self.read_block(line, tokens, state, at)? else {
-            return Ok(());
-        };
         let BlockMotion {
             axis_words,
             optional,
@@ -510,10 +468,10 @@ impl<'m> Pass<'m> {
             return self.arc_block(line, tokens, &motion, clockwise, state, edits, summary, at);
         }
         let n = self.kin.len();
-        if state.tcp_vector && kind == MoveKind::Program {
+        if state.modal.tcp_vector && kind == MoveKind::Program {
             return self.tcp_vector_block(line, tokens, &motion, state, edits, summary, at);
         }
-        if state.tcp && kind == MoveKind::Program {
+        if state.modal.tcp && kind == MoveKind::Program {
             return self.tcp_block(
                 line,
                 tokens,
@@ -545,7 +503,7 @@ impl<'m> Pass<'m> {
             .map(|&i| tokens[i].span.start)
             .min()
             .unwrap_or(0);
-        if optional && state.incremental {
+        if optional && state.modal.incremental {
             return Err(at(
                 first_col,
                 "an optional block (/) in incremental mode (G91) cannot be compensated: whether it runs shifts every later incremental move, and no correction is right for both settings of block delete (program the block in G90)".into(),
@@ -576,10 +534,11 @@ impl<'m> Pass<'m> {
                 if let TokenKind::Word(w) = &tokens[i].kind
                     && let Value::Number { decimals, .. } = w.value
                 {
-                    state.decimals[v] = decimals.max(self.res_decimals(v, self.unit(v, state)));
+                    state.decimals[v] =
+                        decimals.max(self.res_decimals(v, self.unit(v, &state.modal)));
                 }
                 state.programmed |= bit;
-                if state.incremental {
+                if state.modal.incremental {
                     // The optional-block bits stay: an increment does not settle them.
                     state.written[v] = state.written[v].add(units[v]);
                     state.emitted[v] = exact::to_f64(state.written[v].units());
@@ -614,13 +573,13 @@ impl<'m> Pass<'m> {
                     line.number,
                     state.pass,
                     &state.nominal[..n],
-                    state.length,
+                    state.modal.length,
                     hold,
                 )
                 .unwrap_or_else(|| {
                     self.kin.compensate(
                         &state.nominal[..n],
-                        state.length,
+                        state.modal.length,
                         hold,
                         &self.options.solve,
                     )
@@ -694,7 +653,7 @@ impl<'m> Pass<'m> {
         }
         // Split the move where its path strays (G1 from a known start).
         if let Some(tolerance) = &self.options.path
-            && !state.rapid
+            && !state.modal.rapid
             && !optional
             && (0..n).all(|v| (start_known | self.idle) & (1 << v) != 0)
         {
@@ -703,7 +662,7 @@ impl<'m> Pass<'m> {
             );
         }
         // Rewrite present words, add missing ones.
-        if state.incremental {
+        if state.modal.incremental {
             self.write_increments(
                 line,
                 tokens,
@@ -765,7 +724,7 @@ impl<'m> Pass<'m> {
         let (after, beyond) = self.kin.pose_near(
             Model::Actual,
             &state.emitted[..n],
-            state.length,
+            state.modal.length,
             &sol.angles,
         );
         let (bp, bd) = (sol.start_position_error, sol.start_direction_error);
@@ -811,9 +770,9 @@ impl<'m> Pass<'m> {
             let Value::Number { value, decimals } = w.value else {
                 unreachable!()
             };
-            let unit = self.unit(v, state);
+            let unit = self.unit(v, &state.modal);
             let bit = 1u32 << v;
-            if state.incremental {
+            if state.modal.incremental {
                 let u = exact::number_units(
                     value,
                     decimals,
@@ -888,7 +847,7 @@ impl<'m> Pass<'m> {
         let (after, beyond) = self.kin.pose_near(
             Model::Actual,
             &state.emitted[..n],
-            state.length,
+            state.modal.length,
             &sol.angles,
         );
         let (ap, ad) = after.deviation(&sol.target);
@@ -906,13 +865,6 @@ impl<'m> Pass<'m> {
 
     fn travel(&self, var: usize) -> Option<[f64; 2]> {
         self.machine.axes[self.kin.axes()[var]].travel
-    }
-
-    fn axis_letters(&self) -> String {
-        (0..self.kin.len())
-            .map(|v| (self.letter(v) as char).to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
     }
 
     /// Where and how to add a word for variable `v` to a block that lacks it: in the
@@ -982,11 +934,4 @@ impl<'m> Pass<'m> {
 /// The usual order of axis words in a block.
 fn axis_order(letter: u8) -> usize {
     b"XYZUVWABC".iter().position(|&l| l == letter).unwrap_or(9)
-}
-
-/// A G or M word as the program wrote it (for messages).
-fn code_text(content: &[u8], t: &Token) -> String {
-    String::from_utf8_lossy(&content[t.span.clone()])
-        .trim()
-        .to_string()
 }

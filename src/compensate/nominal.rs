@@ -3,11 +3,12 @@
 //! as the compensation pass reads them; nothing is solved or written.
 
 use super::arc_keep::ArcPath;
-use super::words::{BlockMotion, MoveKind};
-use super::{Compensator, INCH, Pass, State, Summary};
+use super::{Compensator, Pass, State, Summary};
 use crate::diag::{Diagnostic, Error};
 use crate::kinematics::{Kinematics, MAX_AXES};
 use crate::nc::{self, Token, TokenKind, Value};
+use crate::program::INCH;
+use crate::program::{BlockMotion, MoveKind};
 
 /// How a move goes from its start to its end.
 // A move is stored once per block and copied rarely; boxing the arc would allocate per arc
@@ -91,12 +92,11 @@ impl Compensator<'_> {
                 Diagnostic::at(path, src, line.offset + offset, message)
             };
             let result = self
-                .select(&line, &tokens, &mut state, &mut summary, &at)
-                .and_then(|()| {
+                .read(&line, &tokens, &mut state, &mut summary, &at)
+                .and_then(|motion| {
                     let pass = &self.passes[state.pass];
-                    let motion = pass.read_block(&line, &tokens, &mut state, &at)?;
                     if let Some(f) = feed_word(&tokens) {
-                        feed = Some(if state.inch { f * INCH } else { f });
+                        feed = Some(if state.modal.inch { f * INCH } else { f });
                     }
                     let Some(motion) = motion else {
                         return Ok(None);
@@ -143,8 +143,8 @@ impl Compensator<'_> {
                                 start: (!moves.is_empty()).then_some(start).flatten(),
                                 end,
                                 shape,
-                                tool_length: state.length,
-                                feed: feed.filter(|_| !state.inverse_time),
+                                tool_length: state.modal.length,
+                                feed: feed.filter(|_| !state.modal.inverse_time),
                             })
                         })
                 });
@@ -204,14 +204,14 @@ impl Pass<'_> {
                     "a drilling cycle cannot be followed: the controller decides its moves (expected the holes as G0/G1 moves)".into(),
                 ));
             }
-            _ if state.tcp => {
+            _ if state.modal.tcp => {
                 return Err(at(
                     col,
                     "a tool-centre-point block (G43.4/G43.5) cannot be followed: the controller solves its axis values (expected a program in machine axes)".into(),
                 ));
             }
             MoveKind::Arc { clockwise } => {
-                if state.incremental {
+                if state.modal.incremental {
                     return Err(at(
                         col,
                         "arcs in incremental mode (G91) cannot be followed (expected them in G90)"
@@ -235,7 +235,7 @@ impl Pass<'_> {
                     at,
                     &mut [0; MAX_AXES],
                 )?;
-                if state.rapid {
+                if state.modal.rapid {
                     Shape::Rapid
                 } else {
                     Shape::Linear

@@ -4,8 +4,8 @@
 //! The pass must run in order (each block's modal state comes from the blocks before it),
 //! but the costly part of a block, the solve, is a pure function of the nominal axis
 //! values, the tool length and the held axes. A helper thread reads each chunk of lines
-//! ahead of the pass, predicts those inputs with a light reading of the modal state (G90
-//! moves in mm or inches, tool lengths) and solves them. The pass takes a solution only
+//! ahead of the pass with the pass's own reader (`program::Reader`), predicts those inputs
+//! for G90 moves in machine axes, and solves them. The pass takes a solution only
 //! when the inputs it has arrived at are bitwise the predicted ones, and solves itself
 //! otherwise (G91, TCP, arcs, anything the prediction does not follow): the output is the
 //! single-threaded output by construction.
@@ -18,11 +18,11 @@
 use std::cmp::Ordering;
 use std::time::Duration;
 
-use super::gcodes::{self, GCode};
-use super::{Compensator, INCH};
+use super::Compensator;
+use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Solution};
-use crate::model::AxisKind;
 use crate::nc;
+use crate::program::{Modal, Motion, MoveKind};
 
 /// The share of the solves the pass keeps for itself at the start: the helper does the
 /// rest. [`balance`] then moves it chunk by chunk towards where neither thread waits for
@@ -116,17 +116,12 @@ impl Presolved {
     }
 }
 
-/// The helper's light reading of the program.
+/// The helper's reading of the program: the same reader as the pass's, with the modal state
+/// followed on its own.
 pub(super) struct Predictor {
+    modal: Modal,
     nominal: [f64; MAX_AXES],
-    inch: bool,
-    incremental: bool,
-    /// G43.4/G43.5 active, or arcs modal: the pass does not solve as predicted.
-    tcp: bool,
-    arcs: bool,
-    length: f64,
-    tool: Option<u32>,
-    words: Vec<(u8, f64)>,
+    tokens: Vec<nc::Token>,
     /// The pass predicted (index into `Compensator::passes`); `None`: the program has
     /// left what the prediction follows.
     pass: Option<usize>,
@@ -138,14 +133,9 @@ pub(super) struct Predictor {
 impl Predictor {
     pub(super) fn new(comp: &Compensator<'_>) -> Self {
         Predictor {
+            modal: Modal::start(comp.machine, comp.start),
             nominal: [0.0; MAX_AXES],
-            inch: false,
-            incremental: false,
-            tcp: false,
-            arcs: false,
-            length: comp.machine.tool.length,
-            tool: None,
-            words: Vec::new(),
+            tokens: Vec::new(),
             pass: comp.machine.lathe.is_none().then_some(comp.start),
             owed: 0.0,
         }
@@ -161,138 +151,65 @@ impl Predictor {
         share: f64,
         out: &mut Vec<Ahead>,
     ) {
-        let tools_listed = comp.machine.tool_chains.iter().any(|c| !c.tools.is_empty());
+        // The pass reports refusals; here they only end what can be predicted.
+        let at = |_: usize, message: String| Diagnostic {
+            path: String::new(),
+            line: 0,
+            column: 0,
+            message,
+            source_line: String::new(),
+            code: None,
+        };
         for line in nc::lines(chunk) {
             let Some(index) = self.pass else {
                 return;
             };
             let pass = &comp.passes[index];
-            if !words(line.content, &mut self.words) {
+            nc::parse_line(line.content, &mut self.tokens);
+            let Ok(motion) = comp.reader.read(&line, &self.tokens, &mut self.modal, &at) else {
+                self.pass = None;
+                return;
+            };
+            // Another tool chain's axes start from where it was parked.
+            if self.modal.chain != pass.chain {
+                self.pass = None;
+                return;
+            }
+            let Some(motion) = motion else { continue };
+            if motion.kind != MoveKind::Program
+                || motion.optional
+                || self.modal.incremental
+                || self.modal.tcp
+                || self.modal.motion != Some(Motion::Line)
+            {
                 continue;
             }
-            let mut moves = false;
-            let mut skip = false;
-            let mut g43 = false;
-            let mut h = None;
-            for &(letter, value) in &self.words {
-                match letter {
-                    b'G' => match gcodes::classify((value * 10.0).round() as i64) {
-                        GCode::Motion => self.arcs = false,
-                        GCode::Arc => self.arcs = true,
-                        GCode::Inch => self.inch = true,
-                        GCode::Millimetre => self.inch = false,
-                        GCode::Absolute => self.incremental = false,
-                        GCode::Incremental => self.incremental = true,
-                        GCode::ToolLength => g43 = true,
-                        GCode::ToolLengthOff => {
-                            self.length = comp.machine.tool.length;
-                            self.tcp = false;
-                        }
-                        GCode::ToolCentrePoint | GCode::ToolCentrePointVector => self.tcp = true,
-                        GCode::Harmless | GCode::WorkOffset | GCode::CancelCycle => {}
-                        _ => skip = true,
-                    },
-                    b'H' => h = Some(value),
-                    b'T' => {
-                        self.tool = Some(value as u32);
-                        // Another tool chain's axes start from where it was parked.
-                        if tools_listed
-                            && value != 0.0
-                            && comp.machine.chain_of_tool(value as u32) != Some(pass.chain)
-                        {
-                            self.pass = None;
-                        }
-                    }
-                    letter => {
-                        if let Some(v) = pass.var_of_letter[(letter - b'A') as usize] {
-                            let linear = pass.kin.kind(v) == AxisKind::Linear;
-                            self.nominal[v] = if self.inch && linear {
-                                value * INCH
-                            } else {
-                                value
-                            };
-                            moves = true;
-                        }
-                    }
+            let n = pass.kin.len();
+            for (v, word) in motion.axis_words[..n].iter().enumerate() {
+                if let Some(i) = *word
+                    && let nc::TokenKind::Word(w) = &self.tokens[i].kind
+                    && let nc::Value::Number { value, .. } = w.value
+                {
+                    self.nominal[v] = pass.unit(v, &self.modal).to_mm(value);
                 }
             }
-            if g43 {
-                let number = h.map(|h| h as u32).or(self.tool);
-                if let Some(l) = number.and_then(|k| comp.machine.tool.lengths.get(&k)) {
-                    self.length = *l;
-                }
+            self.owed += share;
+            if self.owed >= 1.0 {
+                self.owed -= 1.0;
+                continue;
             }
-            if self.pass.is_some() && moves && !skip && !self.incremental && !self.tcp && !self.arcs
-            {
-                self.owed += share;
-                if self.owed >= 1.0 {
-                    self.owed -= 1.0;
-                    continue;
-                }
-                let q = &self.nominal[..pass.kin.len()];
-                let solution = pass
-                    .kin
-                    .compensate(q, self.length, pass.hold, &pass.options.solve);
-                out.push(Ahead {
-                    line: before + line.number,
-                    key: Key::new(index, q, self.length, pass.hold),
-                    solution,
-                });
-            }
+            let q = &self.nominal[..n];
+            let length = self.modal.length;
+            let solution = pass
+                .kin
+                .compensate(q, length, pass.hold, &pass.options.solve);
+            out.push(Ahead {
+                line: before + line.number,
+                key: Key::new(index, q, length, pass.hold),
+                solution,
+            });
         }
     }
-}
-
-/// The words of a line as (uppercase letter, value), read lightly: false when the line
-/// holds anything but plain words, spaces and comments (block delete, expressions,
-/// parameters, keywords), which the prediction leaves to the pass. The values are those
-/// the NC parser reads.
-fn words(content: &[u8], out: &mut Vec<(u8, f64)>) -> bool {
-    out.clear();
-    let mut i = 0;
-    let blank = |b: u8| b == b' ' || b == b'\t' || b == b'\r';
-    while i < content.len() {
-        let b = content[i];
-        if blank(b) {
-            i += 1;
-        } else if b == b'(' {
-            i = content[i..]
-                .iter()
-                .position(|&c| c == b')')
-                .map_or(content.len(), |p| i + p + 1);
-        } else if b == b';' {
-            return true;
-        } else if b.is_ascii_alphabetic() {
-            i += 1;
-            while i < content.len() && (content[i] == b' ' || content[i] == b'\t') {
-                i += 1;
-            }
-            let start = i;
-            if i < content.len() && (content[i] == b'+' || content[i] == b'-') {
-                i += 1;
-            }
-            let digits = i;
-            while i < content.len() && content[i].is_ascii_digit() {
-                i += 1;
-            }
-            let whole = i - digits;
-            let mut fraction = 0;
-            if i < content.len() && content[i] == b'.' {
-                i += 1;
-                while i < content.len() && content[i].is_ascii_digit() {
-                    i += 1;
-                    fraction += 1;
-                }
-            }
-            if whole + fraction == 0 {
-                return false;
-            }
-            out.push((b.to_ascii_uppercase(), nc::to_f64(&content[start..i])));
-        } else {
-            return false;
-        }
-    }
-    true
 }
 
 #[cfg(test)]

@@ -40,7 +40,7 @@ impl Pass<'_> {
         self.kin.subdivide_into(
             (&previous[..n], &state.nominal[..n]),
             (&state.emitted[..n], &end[..n]),
-            state.length,
+            state.modal.length,
             hold,
             tolerance,
             &self.options.solve,
@@ -78,8 +78,8 @@ impl Pass<'_> {
         }
         // In G91 an axis last set by an optional block starts from a place that depends on
         // the block delete switch: no increment from it is right (the block itself says so).
-        let uncertain = state.incremental && (state.uncertain | state.unsettled) != 0;
-        if whole || uncertain || (state.inverse_time && f_word.is_none()) {
+        let uncertain = state.modal.incremental && (state.uncertain | state.unsettled) != 0;
+        if whole || uncertain || (state.modal.inverse_time && f_word.is_none()) {
             summary.note_unsplit(line.number);
             return;
         }
@@ -108,10 +108,10 @@ impl Pass<'_> {
                 }
             }
             for &v in &order {
-                let unit = self.unit(v, state);
+                let unit = self.unit(v, &state.modal);
                 let value = unit.of_mm(piece.q[v]);
                 let d = state.decimals[v].max(self.res_decimals(v, unit));
-                if state.incremental {
+                if state.modal.incremental {
                     // The exact difference between two written absolute positions, as the
                     // block's own increments are written: no drift.
                     let d = d.min(exact::MAX_DECIMALS);
@@ -146,7 +146,7 @@ impl Pass<'_> {
                 && let TokenKind::Word(w) = &f.kind
                 && let Value::Number { value, decimals } = w.value
             {
-                if state.inverse_time {
+                if state.modal.inverse_time {
                     // The piece takes its share of the block's time.
                     let share = piece.s - s_before;
                     let mut number = String::new();
@@ -162,7 +162,7 @@ impl Pass<'_> {
             }
             let _ = write!(text, "{}{}", words.join(style.separator), ending);
         }
-        if state.inverse_time
+        if state.modal.inverse_time
             && let Some(f) = f_word
             && let TokenKind::Word(w) = &f.kind
             && let Value::Number { value, decimals } = w.value

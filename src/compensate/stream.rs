@@ -70,9 +70,13 @@ impl<'c, 'm> Run<'c, 'm> {
         let tokens = &self.tokens;
         let edits = &mut self.edits;
         let blocks = summary.motion_blocks;
-        let result = comp
-            .select(line, tokens, state, summary, &at)
-            .and_then(|()| comp.passes[state.pass].block(line, tokens, state, edits, summary, &at));
+        let result =
+            comp.read(line, tokens, state, summary, &at)
+                .and_then(|motion| match motion {
+                    Some(motion) => comp.passes[state.pass]
+                        .block(line, tokens, motion, state, edits, summary, &at),
+                    None => Ok(()),
+                });
         let pass = &comp.passes[state.pass];
         if summary.motion_blocks > blocks {
             if pass.turning {

@@ -36,7 +36,11 @@ impl Pass<'_> {
         state: &mut State,
         at: &dyn Fn(usize, String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
-        let code = if state.tcp_vector { "G43.5" } else { "G43.4" };
+        let code = if state.modal.tcp_vector {
+            "G43.5"
+        } else {
+            "G43.4"
+        };
         if self.turning {
             return Err(at(
                 0,
@@ -45,7 +49,7 @@ impl Pass<'_> {
                 ),
             ));
         }
-        if state.diameter {
+        if state.modal.diameter {
             return Err(at(
                 0,
                 format!(
@@ -61,7 +65,7 @@ impl Pass<'_> {
                 ),
             ));
         }
-        if state.incremental {
+        if state.modal.incremental {
             return Err(at(
                 0,
                 format!(
@@ -72,15 +76,15 @@ impl Pass<'_> {
         let n = self.kin.len();
         let (nominal, _) = self
             .kin
-            .pose(Model::Nominal, &state.nominal[..n], state.length);
+            .pose(Model::Nominal, &state.nominal[..n], state.modal.length);
         let (written, _) = self
             .kin
-            .pose(Model::Nominal, &state.emitted[..n], state.length);
+            .pose(Model::Nominal, &state.emitted[..n], state.modal.length);
         state.tip_nominal = nominal.p.into();
         state.tip_written = written.p.into();
         state.vector_nominal = nominal.o.into();
         state.vector_written = written.o.into();
-        state.tcp = true;
+        state.modal.tcp = true;
         Ok(())
     }
 
@@ -104,7 +108,7 @@ impl Pass<'_> {
             .map(|&i| tokens[i].span.start)
             .min()
             .unwrap_or(0);
-        if state.incremental {
+        if state.modal.incremental {
             return Err(at(first, "incremental moves (G91) under G43.4 cannot be compensated (program the TCP part in G90)".into()));
         }
         if optional {
@@ -124,15 +128,24 @@ impl Pass<'_> {
             let Some(i) = axis_words[v] else { continue };
             let (value, _, _) = number(i);
             match tips.iter().position(|&t| t == v) {
-                Some(c) => state.tip_nominal[c] = if state.inch { value * INCH } else { value },
+                Some(c) => {
+                    state.tip_nominal[c] = if state.modal.inch {
+                        value * INCH
+                    } else {
+                        value
+                    }
+                }
                 None => guess[v] = value,
             }
             state.programmed |= 1 << v;
         }
         let tip = nalgebra::Vector3::from(state.tip_nominal);
-        let nominal =
-            self.kin
-                .tcp_axes_with_rotaries(&tip, &guess[..n], state.length, &self.options.solve);
+        let nominal = self.kin.tcp_axes_with_rotaries(
+            &tip,
+            &guess[..n],
+            state.modal.length,
+            &self.options.solve,
+        );
         if nominal.position_residual > 1e-6 {
             return Err(at(
                 first,
@@ -145,16 +158,18 @@ impl Pass<'_> {
         state.nominal = nominal.q;
         let sol = self.kin.compensate(
             &state.nominal[..n],
-            state.length,
+            state.modal.length,
             self.hold,
             &self.options.solve,
         );
         summary.motion_blocks += 1;
-        let (programmed, _) = self.kin.pose(Model::Nominal, sol.values(), state.length);
+        let (programmed, _) = self
+            .kin
+            .pose(Model::Nominal, sol.values(), state.modal.length);
         // What to write for each variable, in program units.
         for v in 0..n {
             let tip_c = tips.iter().position(|&t| t == v);
-            let inch = state.inch && tip_c.is_some();
+            let inch = state.modal.inch && tip_c.is_some();
             let to_units = |x: f64| if inch { x / INCH } else { x };
             let (value, written) = match tip_c {
                 Some(c) => (to_units(programmed.p[c]), to_units(state.tip_written[c])),
@@ -164,7 +179,7 @@ impl Pass<'_> {
             match axis_words[v] {
                 Some(i) => {
                     let (old, decimals, span) = number(i);
-                    let d = decimals.max(self.res_decimals(v, Unit::inch(state.inch)));
+                    let d = decimals.max(self.res_decimals(v, Unit::inch(state.modal.inch)));
                     state.decimals[v] = d;
                     if !same_text(old, value, d) {
                         write_fixed(value, d, &mut text);
@@ -178,7 +193,8 @@ impl Pass<'_> {
                     }
                 }
                 None => {
-                    let d = state.decimals[v].max(self.res_decimals(v, Unit::inch(state.inch)));
+                    let d =
+                        state.decimals[v].max(self.res_decimals(v, Unit::inch(state.modal.inch)));
                     if same_text(written, value, d) {
                         continue;
                     }
@@ -210,7 +226,7 @@ impl Pass<'_> {
         let ctrl = self.kin.tcp_axes_with_rotaries(
             &nalgebra::Vector3::from(state.tip_written),
             &ctrl_guess[..n],
-            state.length,
+            state.modal.length,
             &self.options.solve,
         );
         for (v, &ctrl_value) in ctrl.q.iter().enumerate().take(n) {
@@ -218,7 +234,9 @@ impl Pass<'_> {
                 state.emitted[v] = ctrl_value;
             }
         }
-        let (after, beyond) = self.kin.pose(Model::Actual, ctrl.values(), state.length);
+        let (after, beyond) = self
+            .kin
+            .pose(Model::Actual, ctrl.values(), state.modal.length);
         let (ap, ad) = after.deviation(&sol.target);
         summary.record(
             line.number,

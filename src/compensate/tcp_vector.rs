@@ -12,12 +12,12 @@
 use super::exact::Position;
 use super::exact::Unit;
 use super::split::Style;
-use super::words::BlockMotion;
 use super::{Edit, INCH, Pass, State, Summary};
 use crate::diag::Diagnostic;
 use crate::kinematics::{Model, Pose, SolveOptions};
 use crate::nc::number::{decimals_for, same_text, write_fixed};
 use crate::nc::{self, Token, TokenKind, Value};
+use crate::program::BlockMotion;
 use nalgebra::Vector3;
 
 impl Pass<'_> {
@@ -38,7 +38,7 @@ impl Pass<'_> {
         let vector_words = &motion.arc_words[..3];
         let present = || axis_words[..n].iter().chain(vector_words).flatten();
         let first = present().map(|&i| tokens[i].span.start).min().unwrap_or(0);
-        if state.incremental {
+        if state.modal.incremental {
             return Err(at(first, "incremental moves (G91) under G43.5 cannot be compensated (program the TCP part in G90)".into()));
         }
         if motion.optional {
@@ -68,7 +68,11 @@ impl Pass<'_> {
         for (c, &v) in tips.iter().enumerate() {
             if let Some(i) = axis_words[v] {
                 let (value, _, _) = number(i);
-                state.tip_nominal[c] = if state.inch { value * INCH } else { value };
+                state.tip_nominal[c] = if state.modal.inch {
+                    value * INCH
+                } else {
+                    value
+                };
             }
         }
         if vector_words.iter().any(Option::is_some) {
@@ -99,7 +103,7 @@ impl Pass<'_> {
             Model::Nominal,
             &target,
             &state.nominal[..n],
-            state.length,
+            state.modal.length,
             &far,
         ) else {
             return Err(at(
@@ -111,22 +115,24 @@ impl Pass<'_> {
         state.programmed |= (1u32 << n) - 1;
         let sol = self.kin.compensate(
             &state.nominal[..n],
-            state.length,
+            state.modal.length,
             self.hold,
             &self.options.solve,
         );
         summary.motion_blocks += 1;
-        let (programmed, _) = self.kin.pose(Model::Nominal, sol.values(), state.length);
+        let (programmed, _) = self
+            .kin
+            .pose(Model::Nominal, sol.values(), state.modal.length);
 
         // The tip words, as under G43.4.
         for (c, &v) in tips.iter().enumerate() {
-            let to_units = |x: f64| if state.inch { x / INCH } else { x };
+            let to_units = |x: f64| if state.modal.inch { x / INCH } else { x };
             let value = to_units(programmed.p[c]);
             let mut text = String::new();
             match axis_words[v] {
                 Some(i) => {
                     let (old, decimals, span) = number(i);
-                    let d = decimals.max(self.res_decimals(v, Unit::inch(state.inch)));
+                    let d = decimals.max(self.res_decimals(v, Unit::inch(state.modal.inch)));
                     state.decimals[v] = d;
                     if same_text(old, value, d) {
                         write_fixed(old, d, &mut text);
@@ -140,7 +146,8 @@ impl Pass<'_> {
                     }
                 }
                 None => {
-                    let d = state.decimals[v].max(self.res_decimals(v, Unit::inch(state.inch)));
+                    let d =
+                        state.decimals[v].max(self.res_decimals(v, Unit::inch(state.modal.inch)));
                     if same_text(to_units(state.tip_written[c]), value, d) {
                         continue;
                     }
@@ -150,7 +157,7 @@ impl Pass<'_> {
                 }
             }
             let x: f64 = text.parse().unwrap_or(value);
-            state.tip_written[c] = if state.inch { x * INCH } else { x };
+            state.tip_written[c] = if state.modal.inch { x * INCH } else { x };
         }
 
         // The vector words, at the programmed vector's length so that unchanged components
@@ -204,7 +211,13 @@ impl Pass<'_> {
         };
         let ctrl = self
             .kin
-            .inverse(Model::Nominal, &written, sol.values(), state.length, &far)
+            .inverse(
+                Model::Nominal,
+                &written,
+                sol.values(),
+                state.modal.length,
+                &far,
+            )
             .map_or(sol.q, |c| c.q);
         state.emitted = ctrl;
         for (v, &value) in ctrl.iter().enumerate().take(n) {
@@ -214,7 +227,7 @@ impl Pass<'_> {
                 unit: Unit::MM,
             };
         }
-        let (after, beyond) = self.kin.pose(Model::Actual, &ctrl[..n], state.length);
+        let (after, beyond) = self.kin.pose(Model::Actual, &ctrl[..n], state.modal.length);
         let (ap, ad) = after.deviation(&sol.target);
         summary.record(
             line.number,

@@ -36,7 +36,7 @@ impl Pass<'_> {
         at: &dyn Fn(usize, String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
         for &v in &self.write_order {
-            let unit = self.unit(v, state);
+            let unit = self.unit(v, &state.modal);
             let value = unit.of_mm(q[v]);
             match axis_words[v] {
                 Some(i) => {
@@ -126,7 +126,7 @@ impl Pass<'_> {
     ) -> Result<(), Diagnostic> {
         for &v in &self.write_order {
             let bit = 1u32 << v;
-            let unit = self.unit(v, state);
+            let unit = self.unit(v, &state.modal);
             let value = unit.of_mm(q[v]);
             let letter = self.letter(v) as char;
             // The axis's position depends on whether an optional block ran: an increment

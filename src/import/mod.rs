@@ -144,6 +144,7 @@ fn iso_machine() -> Machine {
         resolution: Resolution::default(),
         tool: Tool::default(),
         lathe: None,
+        codes: Default::default(),
     }
 }
 

@@ -135,14 +135,7 @@ impl Kinematics {
             .get(tool_chain)
             .ok_or_else(|| KinematicsError::NoSuchToolChain(tool_chain.to_string()))?;
         // Variables in the machine file's axis order, whichever chain moves them.
-        let mut axes: Vec<usize> = machine
-            .workpiece_chain
-            .iter()
-            .chain(tool.axes.iter())
-            .copied()
-            .collect();
-        axes.sort_unstable();
-        axes.dedup();
+        let axes = machine.variables(tool_chain);
         if axes.len() > MAX_AXES {
             return Err(KinematicsError::TooManyAxes(axes.len()));
         }

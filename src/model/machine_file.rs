@@ -30,6 +30,7 @@
 
 use super::terms::{is_axis_name, or_list, suggest};
 use super::{Axis, AxisKind, Chain, Lathe, Machine, Resolution, Tool};
+use crate::program::{self, CodeName, MachineCodes};
 use crate::{Error, Result};
 use nalgebra::Vector3;
 use std::ops::Range;
@@ -62,6 +63,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
             "axes",
             "tool",
             "lathe",
+            "codes",
         ],
         "the machine file",
     )?;
@@ -238,6 +240,11 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         None => None,
     };
 
+    let codes = match root.get("codes") {
+        Some(v) => codes(&doc, v)?,
+        None => MachineCodes::default(),
+    };
+
     Ok(Machine {
         name,
         axes,
@@ -246,7 +253,67 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         resolution,
         tool,
         lathe,
+        codes,
     })
+}
+
+/// `[codes]`: the machine's own G and M codes, each in one list, none of nccomp's own.
+fn codes(doc: &Doc, v: &Spanned<DeValue>) -> Result<MachineCodes> {
+    let t = doc.table(
+        v,
+        "[codes], a table with `harmless`, `tcp_on` and `tcp_off` lists such as [\"M428\"]",
+    )?;
+    doc.check_keys(t, &["harmless", "tcp_on", "tcp_off"], "[codes]")?;
+    let mut codes = MachineCodes::default();
+    let mut seen: Vec<(CodeName, &str)> = Vec::new();
+    for key in ["harmless", "tcp_on", "tcp_off"] {
+        let Some(list) = t.get(key) else { continue };
+        let what = format!("`{key}` of [codes], a list of codes such as [\"M428\"]");
+        let array = list.get_ref().as_array().ok_or_else(|| {
+            doc.err(
+                list.span(),
+                format!("expected {what}, found {}", describe(list.get_ref())),
+            )
+        })?;
+        for e in array.iter() {
+            let text = doc.string(e, &format!("a code in `{key}` of [codes]"))?;
+            let Some(name) = CodeName::parse(text) else {
+                return Err(doc.err(
+                    e.span(),
+                    format!(
+                        "`{text}` in `{key}` of [codes]: expected a G or M code such as \"M428\" \
+                         or \"G5.1\" (a letter, a number, at most one decimal)"
+                    ),
+                ));
+            };
+            if program::codes::is_known(name) {
+                return Err(doc.err(
+                    e.span(),
+                    format!(
+                        "`{text}` in `{key}` of [codes]: {name} is one of nccomp's own codes \
+                         (docs/nc-support.md), and a machine file cannot give it another \
+                         meaning; expected a code of this machine's own"
+                    ),
+                ));
+            }
+            if let Some((_, other)) = seen.iter().find(|(n, _)| *n == name) {
+                return Err(doc.err(
+                    e.span(),
+                    format!(
+                        "`{text}` in `{key}` of [codes]: {name} is already in `{other}`; \
+                         expected each code in one list, once"
+                    ),
+                ));
+            }
+            seen.push((name, key));
+            match key {
+                "harmless" => codes.harmless.push(name),
+                "tcp_on" => codes.tcp_on.push(name),
+                _ => codes.tcp_off.push(name),
+            }
+        }
+    }
+    Ok(codes)
 }
 
 /// A chain's `tools = [1, 2, 3]`: T numbers, each in one chain only.

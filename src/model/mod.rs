@@ -97,6 +97,8 @@ pub struct Machine {
     pub tool: Tool,
     /// Set for a lathe or turning–milling centre: its spindle turns the part.
     pub lathe: Option<Lathe>,
+    /// G and M codes of this machine's own that programs may use (machine file `[codes]`).
+    pub codes: crate::program::MachineCodes,
 }
 
 impl Machine {
@@ -106,6 +108,16 @@ impl Machine {
 
     pub fn tool_chain(&self, name: &str) -> Option<usize> {
         self.tool_chains.iter().position(|c| c.name == name)
+    }
+
+    /// The variables of tool chain `chain`: the machine axes of the workpiece chain and that
+    /// tool chain, in the machine file's axis order (the kinematics' variable order).
+    pub fn variables(&self, chain: usize) -> Vec<usize> {
+        let tool = self.tool_chains.get(chain).map_or(&[][..], |c| &c.axes[..]);
+        let mut axes: Vec<usize> = self.workpiece_chain.iter().chain(tool).copied().collect();
+        axes.sort_unstable();
+        axes.dedup();
+        axes
     }
 
     /// The tool chain a T word selects, if the machine file maps that tool to one.

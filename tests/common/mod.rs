@@ -53,6 +53,7 @@ pub fn ac_trunnion(a_point: [f64; 3], c_point: [f64; 3]) -> Machine {
         resolution: Resolution::default(),
         tool: Tool::default(),
         lathe: None,
+        codes: Default::default(),
     }
 }
 
@@ -76,6 +77,7 @@ pub fn head_head(pivot: f64) -> Machine {
         resolution: Resolution::default(),
         tool: Tool::default(),
         lathe: None,
+        codes: Default::default(),
     }
 }
 

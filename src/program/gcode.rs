@@ -1,0 +1,615 @@
+//! The G-code front end (ISO 6983 as Fanuc, Haas and LinuxCNC write it): a block's tokens
+//! into its [`Block`], following the [`Modal`] state.
+//!
+//! The tool chain and the lathe's spindle mode are read first (T words, M3/M4/M5/M19, the
+//! spindle's C word act before the block's motion, as in LinuxCNC's order of execution):
+//! the chain decides which letters are axes.
+
+use super::codes::{Code, Cycle, Spindle as SpindleCode, Tcp};
+use super::{BlockMotion, Modal, Motion, MoveKind, Reader, Spindle};
+use crate::diag::Diagnostic;
+use crate::kinematics::MAX_AXES;
+use crate::nc::{self, Token, TokenKind, Value};
+
+/// A located refusal: (byte offset in the line, message) → diagnostic.
+pub type At<'a> = &'a dyn Fn(usize, String) -> Diagnostic;
+
+/// A G or M word as the program wrote it (for messages).
+pub fn code_text(content: &[u8], t: &Token) -> String {
+    String::from_utf8_lossy(&content[t.span.clone()])
+        .trim()
+        .to_string()
+}
+
+/// The block starts with a block delete `/`.
+fn is_optional(tokens: &[Token]) -> bool {
+    tokens
+        .iter()
+        .find(|t| t.kind != TokenKind::Space)
+        .is_some_and(|t| t.kind == TokenKind::BlockDelete)
+}
+
+impl Reader<'_> {
+    /// Read one block: check that every word is understood, follow its modal words in
+    /// `modal`, and say how it moves (`None`: it moves nothing). On a refusal `modal` holds
+    /// what the block changed before the refused word.
+    pub fn read(
+        &self,
+        line: &nc::Line<'_>,
+        tokens: &[Token],
+        modal: &mut Modal,
+        at: At<'_>,
+    ) -> Result<Option<BlockMotion>, Diagnostic> {
+        self.select(line, tokens, modal, at)?;
+        self.read_words(line, tokens, modal, at)
+    }
+
+    /// Follow the block's T word and spindle codes: the tool chain and spindle mode the
+    /// block runs in.
+    fn select(
+        &self,
+        line: &nc::Line<'_>,
+        tokens: &[Token],
+        modal: &mut Modal,
+        at: At<'_>,
+    ) -> Result<(), Diagnostic> {
+        let machine = self.machine;
+        let lathe = machine.lathe;
+        if lathe.is_none() && !self.tools_listed {
+            return Ok(());
+        }
+        let optional = is_optional(tokens);
+        let current = modal.chain;
+        let mut chain = current;
+        let mut spindle = modal.spindle;
+        // The first word that changes something, for messages.
+        let mut cause: Option<&Token> = None;
+        let mut spindle_word: Option<&Token> = None;
+        let spindle_letter = lathe.map(|l| machine.axes[l.spindle].word as u8);
+        for t in tokens {
+            let TokenKind::Word(w) = &t.kind else {
+                continue;
+            };
+            // Expressions and parameters are refused when the words are read.
+            let Value::Number { value, .. } = w.value else {
+                continue;
+            };
+            match w.letter {
+                b'T' if self.tools_listed => {
+                    if value < 0.0 || value.fract() != 0.0 || value > f64::from(u32::MAX) {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "`{}`: expected a tool number (a whole number from 0)",
+                                code_text(line.content, t)
+                            ),
+                        ));
+                    }
+                    let number = value as u32;
+                    if number == 0 {
+                        continue;
+                    }
+                    chain = machine.chain_of_tool(number).ok_or_else(|| {
+                        let lists: Vec<String> = machine
+                            .tool_chains
+                            .iter()
+                            .filter(|c| !c.tools.is_empty())
+                            .map(|c| {
+                                let tools: Vec<String> =
+                                    c.tools.iter().map(|t| format!("T{t}")).collect();
+                                format!("`{}` {}", c.name, tools.join(" "))
+                            })
+                            .collect();
+                        at(
+                            t.span.start,
+                            format!(
+                                "T{number} selects no tool chain: expected a tool the machine file lists in a chain's `tools` ({})",
+                                lists.join("; ")
+                            ),
+                        )
+                    })?;
+                    if chain != current {
+                        cause.get_or_insert(t);
+                    }
+                }
+                b'M' if lathe.is_some() => {
+                    let before = spindle;
+                    if let Code::Spindle(code) = self.code(b'M', (value * 10.0).round() as i64) {
+                        match code {
+                            SpindleCode::Turn => spindle = Spindle::Turning(line.number),
+                            // Stopping a positioned spindle leaves it where it is.
+                            SpindleCode::Stop if spindle != Spindle::Positioned => {
+                                spindle = Spindle::Free
+                            }
+                            SpindleCode::Stop => {}
+                            SpindleCode::Orient => spindle = Spindle::Positioned,
+                        }
+                    }
+                    if spindle != before {
+                        cause.get_or_insert(t);
+                    }
+                }
+                letter if Some(letter) == spindle_letter => spindle_word = Some(t),
+                _ => {}
+            }
+        }
+        if let Some(t) = spindle_word {
+            if let Spindle::Turning(on) = spindle {
+                let letter = spindle_letter.map_or('C', char::from);
+                return Err(at(
+                    t.span.start,
+                    format!(
+                        "{letter} positions the spindle, but it turns (M3/M4 at line {on}): expected M5 or M19 before the spindle is positioned"
+                    ),
+                ));
+            }
+            if spindle != Spindle::Positioned {
+                cause.get_or_insert(t);
+                spindle = Spindle::Positioned;
+            }
+        }
+        let Some(cause) = cause else {
+            return Ok(());
+        };
+        let what = code_text(line.content, cause);
+        if optional {
+            return Err(at(
+                cause.span.start,
+                format!(
+                    "{what} in an optional block (/) cannot be compensated: whether the block runs would decide which tool chain or spindle mode every later block is compensated in (move it out of the optional block)"
+                ),
+            ));
+        }
+        let positioned = spindle == Spindle::Positioned;
+        let was_positioned = modal.spindle == Spindle::Positioned;
+        if modal.tcp && (chain != current || positioned != was_positioned) {
+            return Err(at(
+                cause.span.start,
+                format!(
+                    "{what} under tool-centre-point control (G43.4/G43.5) cannot be compensated: cancel it (G49) first"
+                ),
+            ));
+        }
+        modal.spindle = spindle;
+        modal.chain = chain;
+        Ok(())
+    }
+
+    /// Check that every word is understood, follow the modal words, and say which axis
+    /// words the block moves (`None`: it moves nothing).
+    fn read_words(
+        &self,
+        line: &nc::Line<'_>,
+        tokens: &[Token],
+        state: &mut Modal,
+        at: At<'_>,
+    ) -> Result<Option<BlockMotion>, Diagnostic> {
+        let words = &self.chains[state.chain];
+        let n = words.letters.len();
+        let optional = is_optional(tokens);
+        let mut axis_words: [Option<usize>; MAX_AXES] = [None; MAX_AXES];
+        let mut has_words = false;
+        let mut dwell = false;
+        let mut motion_in_block: Option<(Motion, usize)> = None;
+        let mut h_word: Option<(u32, usize)> = None;
+        let mut g43 = false;
+        // A plain G43 (or a machine's TCP-off code) ends tool-centre-point control: G43,
+        // G43.4, G43.5 and G49 are one modal group (Fanuc's group 08).
+        let mut tcp_off = false;
+        let mut g49 = false;
+        let mut tcp_on = false;
+        let mut tcp_vector = false;
+        let mut o_word = None;
+        let mut other_text = None;
+        let mut arc_word: Option<(char, usize)> = None;
+        let mut arc_words: [Option<usize>; 4] = [None; 4];
+        let mut arc_code = None;
+        let mut p_word = None;
+        let mut special: Option<MoveKind> = None;
+        let mut set_reference: Option<usize> = None;
+        for (i, t) in tokens.iter().enumerate() {
+            let w = match &t.kind {
+                TokenKind::Word(w) => w,
+                TokenKind::Other => {
+                    other_text.get_or_insert(t.span.start);
+                    continue;
+                }
+                _ => continue,
+            };
+            has_words = true;
+            let letter = w.letter as char;
+            let number = match w.value {
+                Value::Number { value, .. } => value,
+                Value::Expression => {
+                    return Err(at(
+                        t.span.start,
+                        format!(
+                            "{letter} is given by an expression; expressions cannot be compensated (expected a number)"
+                        ),
+                    ));
+                }
+                Value::Parameter => {
+                    return Err(at(
+                        t.span.start,
+                        format!(
+                            "{letter} is given by a parameter; parameters cannot be compensated (expected a number)"
+                        ),
+                    ));
+                }
+                Value::Missing => {
+                    if letter == 'O' {
+                        o_word = Some(t.span.start);
+                        continue;
+                    }
+                    return Err(at(
+                        t.span.start,
+                        format!("{letter} has no value (expected a number after it)"),
+                    ));
+                }
+            };
+            match letter {
+                'G' => {
+                    let code10 = (number * 10.0).round() as i64;
+                    match self.code(b'G', code10) {
+                        code @ (Code::Unsupported(_)
+                        | Code::Unknown
+                        | Code::DataSetting(_)
+                        | Code::TransformOn(_)
+                        | Code::Probe
+                        | Code::Skip
+                        | Code::MacroCall
+                        | Code::ExtendedWorkOffset
+                        | Code::Cycle(Cycle::Other(_))) => {
+                            let what = match code {
+                                Code::Unsupported(what)
+                                | Code::DataSetting(what)
+                                | Code::TransformOn(what)
+                                | Code::Cycle(Cycle::Other(what)) => what,
+                                Code::Probe => "probing (G38.x)",
+                                Code::Skip => "a skip (probing) move (G31)",
+                                Code::MacroCall => "a macro call (G65)",
+                                Code::ExtendedWorkOffset => "an extended work offset (G54.1)",
+                                _ => "this G code",
+                            };
+                            return Err(at(
+                                t.span.start,
+                                format!(
+                                    "{} cannot be compensated: {what} {}",
+                                    code_text(line.content, t),
+                                    if what == "this G code" {
+                                        "is not known to nccomp"
+                                    } else {
+                                        "is not supported"
+                                    }
+                                ),
+                            ));
+                        }
+                        Code::Line { rapid } => {
+                            motion_in_block = Some((Motion::Line, t.span.start));
+                            state.rapid = rapid;
+                        }
+                        Code::Arc { clockwise } => {
+                            motion_in_block = Some((Motion::Arc, t.span.start));
+                            state.rapid = false;
+                            state.clockwise = clockwise;
+                            arc_code = Some(i);
+                        }
+                        Code::Dwell => dwell = true,
+                        Code::Units { inch } => state.inch = inch,
+                        Code::ToolLength => {
+                            g43 = true;
+                            tcp_off = true;
+                        }
+                        Code::TcpOn(kind) => {
+                            g43 = true;
+                            tcp_on = true;
+                            tcp_vector = kind == Tcp::Vector;
+                        }
+                        Code::TcpOff => tcp_off = true,
+                        Code::ToolLengthOff => g49 = true,
+                        Code::WorkOffset(code) => {
+                            if let Some(prev) = state.work_offset
+                                && prev != code
+                            {
+                                return Err(at(
+                                    t.span.start,
+                                    format!(
+                                        "{} switches the work offset; the machine file describes one program zero, so a program must keep to one work offset",
+                                        code_text(line.content, t)
+                                    ),
+                                ));
+                            }
+                            state.work_offset = Some(code);
+                        }
+                        Code::CancelCycle => state.motion = None,
+                        Code::Cycle(Cycle::Drill) => {
+                            motion_in_block = Some((Motion::Cycle, t.span.start));
+                            arc_code = Some(i);
+                        }
+                        Code::CycleReturn { initial } => state.retract_to_initial = initial,
+                        Code::Diameter { diameter } => {
+                            if diameter && self.machine.lathe.is_none() {
+                                return Err(at(
+                                    t.span.start,
+                                    format!(
+                                        "{} cannot be compensated: lathe diameter mode needs a [lathe] table in the machine file (the spindle that turns the part)",
+                                        code_text(line.content, t)
+                                    ),
+                                ));
+                            }
+                            if optional && diameter != state.diameter {
+                                return Err(at(
+                                    t.span.start,
+                                    format!(
+                                        "{} in an optional block (/) cannot be compensated: whether the block runs would decide how every later X word is read (move it out of the optional block)",
+                                        code_text(line.content, t)
+                                    ),
+                                ));
+                            }
+                            state.diameter = diameter;
+                        }
+                        Code::Distance { incremental } => {
+                            if optional && incremental != state.incremental {
+                                return Err(at(
+                                    t.span.start,
+                                    format!(
+                                        "{} in an optional block (/) cannot be compensated: whether the block runs would decide how every later axis word is read (move the distance mode out of the optional block)",
+                                        code_text(line.content, t)
+                                    ),
+                                ));
+                            }
+                            state.incremental = incremental;
+                        }
+                        Code::MachineCoordinates => {
+                            special.get_or_insert(MoveKind::Machine);
+                        }
+                        Code::ReturnHome => special = Some(MoveKind::Home),
+                        Code::SetReference => set_reference = Some(i),
+                        Code::Plane(plane) => state.plane = plane,
+                        Code::ArcCentres { absolute } => state.arc_absolute = absolute,
+                        Code::Feed { inverse_time, .. } => state.inverse_time = inverse_time,
+                        Code::TransformOff
+                        | Code::Harmless
+                        | Code::Spindle(_)
+                        | Code::ProgramEnd
+                        | Code::Subprogram => {}
+                    }
+                }
+                'M' => match self.code(b'M', (number * 10.0).round() as i64) {
+                    Code::Subprogram => {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "{} cannot be compensated: a subprogram call or return (M97/M98/M99) is not supported",
+                                code_text(line.content, t)
+                            ),
+                        ));
+                    }
+                    Code::TcpOn(_) => {
+                        tcp_on = true;
+                        tcp_vector = false;
+                    }
+                    Code::TcpOff => tcp_off = true,
+                    Code::Unknown => {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "{} cannot be compensated: this M code is not known to nccomp, and what it does to the machine's motion cannot be guessed (expected a standard M code; a machine file may name the machine's own codes under [codes] as `harmless` or as `tcp_on`/`tcp_off` switches)",
+                                code_text(line.content, t)
+                            ),
+                        ));
+                    }
+                    _ => {}
+                },
+                'T' => state.tool = Some(number as u32),
+                'H' => h_word = Some((number as u32, t.span.start)),
+                'O' => o_word = Some(t.span.start),
+                'P' => p_word = Some(t.span.start),
+                'N' | 'F' | 'S' | 'D' | 'Q' | 'L' => {}
+                _ => {
+                    let var = (letter.is_ascii_uppercase())
+                        .then(|| words.var_of_letter[(w.letter - b'A') as usize])
+                        .flatten();
+                    match var {
+                        Some(v) => {
+                            if axis_words[v].is_some() {
+                                return Err(at(
+                                    t.span.start,
+                                    format!("{letter} appears twice in one block"),
+                                ));
+                            }
+                            axis_words[v] = Some(i);
+                        }
+                        None if dwell && letter == 'X' => {}
+                        None if "IJKR".contains(letter) => {
+                            arc_word.get_or_insert((letter, t.span.start));
+                            arc_words["IJKR".find(letter).unwrap_or(0)] = Some(i);
+                        }
+                        None => {
+                            let what = if "XYZABCUVW".contains(letter) {
+                                format!(
+                                    "{letter} is not an axis of this machine (its axes are {})",
+                                    words
+                                        .letters
+                                        .iter()
+                                        .map(|&l| (l as char).to_string())
+                                        .collect::<Vec<_>>()
+                                        .join(", ")
+                                )
+                            } else {
+                                format!("{letter} words are not known to nccomp")
+                            };
+                            return Err(at(
+                                t.span.start,
+                                format!("{what}; expected a G0/G1 block in machine axes"),
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+        if let Some(off) = other_text {
+            // Parameter assignments (`#1 = 5`) move nothing; a parameter used in a word is
+            // caught above. Anything else may be motion we do not understand.
+            if line.content[off] != b'#' && o_word.is_none() {
+                let end = tokens
+                    .iter()
+                    .find(|t| t.span.start == off)
+                    .map_or(off + 1, |t| t.span.end);
+                return Err(at(
+                    off,
+                    format!(
+                        "`{}` cannot be compensated (expected words such as G1 X10.5)",
+                        String::from_utf8_lossy(&line.content[off..end])
+                    ),
+                ));
+            }
+        }
+        if !has_words {
+            return Ok(None);
+        }
+        if let Some(col) = o_word {
+            if tokens.iter().any(|t| {
+                matches!(t.kind, TokenKind::Other | TokenKind::Word(_)) && t.span.start > col
+            }) {
+                return Err(at(col, "O-word control flow (subprograms, loops, conditionals) cannot be compensated; expected a plain program number line".into()));
+            }
+            return Ok(None);
+        }
+        if g43 {
+            let tool = &self.machine.tool;
+            let number = match h_word {
+                Some((h, _)) => h,
+                None => state.tool.ok_or_else(|| {
+                    at(
+                        0,
+                        "G43 without an H word and no tool selected (expected G43 Hn)".into(),
+                    )
+                })?,
+            };
+            state.length = *tool.lengths.get(&number).ok_or_else(|| {
+                at(h_word.map_or(0, |h| h.1), format!(
+                    "tool length H{number} is not in the machine file's [tool] lengths (expected one of: {})",
+                    tool.lengths.keys().map(|k| k.to_string()).collect::<Vec<_>>().join(", ")
+                ))
+            })?;
+        }
+        if g49 {
+            state.length = self.machine.tool.length;
+        }
+        if (g49 || tcp_off) && !tcp_on {
+            state.tcp = false;
+            state.tcp_vector = false;
+        }
+        if tcp_on {
+            state.tcp = true;
+            state.tcp_vector = tcp_vector;
+        }
+        if let Some((g, _)) = motion_in_block {
+            state.motion = Some(g);
+        }
+        if state.motion == Some(Motion::Cycle)
+            && (motion_in_block.is_some()
+                || axis_words[..n].iter().any(Option::is_some)
+                || arc_word.is_some())
+        {
+            if special.is_some() {
+                let col = motion_in_block.map_or(0, |m| m.1);
+                return Err(at(
+                    col,
+                    "a canned cycle cannot be combined with G28/G30/G53".into(),
+                ));
+            }
+            return Ok(Some(BlockMotion {
+                axis_words,
+                arc_words,
+                arc_code,
+                optional,
+                kind: MoveKind::Cycle,
+            }));
+        }
+        let arc = state.motion == Some(Motion::Arc);
+        if arc && (axis_words[..n].iter().any(Option::is_some) || arc_word.is_some()) {
+            let col = motion_in_block.map_or(0, |m| m.1);
+            if let Some(col) = p_word {
+                return Err(at(col, "arcs with a P word (several turns) cannot be compensated; expected one turn at most".into()));
+            }
+            if special.is_some() {
+                return Err(at(col, "an arc cannot be combined with G28/G30/G53".into()));
+            }
+            return Ok(Some(BlockMotion {
+                axis_words,
+                arc_words,
+                arc_code,
+                optional,
+                kind: MoveKind::Arc {
+                    clockwise: state.clockwise,
+                },
+            }));
+        }
+        if state.tcp_vector && special.is_none() {
+            // G43.5: I, J, K are the tool vector; R means nothing here.
+            if let Some(i) = arc_words[3] {
+                return Err(at(
+                    tokens[i].span.start,
+                    "R words are not expected under G43.5 (expected X, Y, Z for the tip and I, J, K for the tool vector)".into(),
+                ));
+            }
+            let vector = arc_words[..3].iter().any(Option::is_some);
+            if dwell || !(vector || axis_words[..n].iter().any(Option::is_some)) {
+                return Ok(None);
+            }
+            return Ok(Some(BlockMotion {
+                axis_words,
+                arc_words,
+                arc_code: None,
+                optional,
+                kind: MoveKind::Program,
+            }));
+        }
+        if let Some((letter, col)) = arc_word {
+            return Err(at(
+                col,
+                format!(
+                    "{letter} words (arc centres and radii, tool vectors) are not supported; expected a G0/G1 block in machine axes"
+                ),
+            ));
+        }
+        let moves = axis_words[..n].iter().any(Option::is_some);
+        if let Some(i) = set_reference
+            && moves
+        {
+            return Err(at(
+                tokens[i].span.start,
+                format!(
+                    "{} with axis words cannot be compensated: setting a reference point takes none (expected the code on its own)",
+                    code_text(line.content, &tokens[i])
+                ),
+            ));
+        }
+        match special {
+            // G53 without axis words moves nothing.
+            Some(MoveKind::Machine) if !moves => return Ok(None),
+            Some(kind) => {
+                return Ok(Some(BlockMotion {
+                    axis_words,
+                    arc_words: [None; 4],
+                    arc_code: None,
+                    optional,
+                    kind,
+                }));
+            }
+            None => {}
+        }
+        if dwell || !moves {
+            return Ok(None);
+        }
+        Ok(Some(BlockMotion {
+            axis_words,
+            arc_words: [None; 4],
+            arc_code: None,
+            optional,
+            kind: MoveKind::Program,
+        }))
+    }
+}

@@ -1,0 +1,217 @@
+//! The one reading of NC programs: what each block means, in no dialect.
+//!
+//! A program's text is first a lossless document ([`crate::nc`]: lines and tokens). A
+//! dialect's front end reads each block's tokens into a [`BlockMotion`]: which axis words
+//! it has (by variable of the active tool chain) and how it moves ([`MoveKind`]); it
+//! follows the program's [`Modal`] state as it goes (a caller that keeps state of its own
+//! compares the modal state before and after the block: the tool chain, the spindle, TCP). The G-code front end ([`Reader::read`]) is the first dialect. Every code's meaning
+//! comes from one table ([`codes`]); no other module matches G or M numbers.
+//!
+//! The compensation pass, its solve-ahead thread, `contour` and `identify` read programs
+//! through a [`Reader`]; `probe` follows its own modal state (probing moves, feeds) from
+//! the same code table.
+//!
+//! What the reader refuses, it refuses with the block's place and what was expected: a
+//! word given by an expression or a parameter, a letter that is not an axis of the
+//! machine, a code not in the table (unless the machine file names it), control flow.
+
+pub mod codes;
+mod gcode;
+
+pub use codes::{Code, CodeName, MachineCodes, Tcp};
+
+use crate::kinematics::MAX_AXES;
+use crate::model::Machine;
+
+/// Millimetres per inch.
+pub const INCH: f64 = 25.4;
+
+/// How a block moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MoveKind {
+    /// A G0/G1 move in program coordinates (under TCP: the tip and the tool direction).
+    Program,
+    /// G53: the axis words are machine coordinates. The axes it names end at an unknown
+    /// program position.
+    Machine,
+    /// G28/G30: the axes named (all of them if none is) go to a reference point, and end
+    /// at an unknown program position.
+    Home,
+    /// G2/G3 in program coordinates.
+    Arc { clockwise: bool },
+    /// A block of a drilling cycle (G81 …).
+    Cycle,
+}
+
+/// What a block that moves asks for: token indices of its words in the line's tokens.
+#[derive(Debug, Clone, Copy)]
+pub struct BlockMotion {
+    /// Each variable's axis word (variables of the active tool chain), if the block has one.
+    pub axis_words: [Option<usize>; MAX_AXES],
+    /// The I, J, K and R words. Under G43.5 I, J, K are the tool vector; in a cycle R is
+    /// the retract plane.
+    pub arc_words: [Option<usize>; 4],
+    /// The G2/G3 word of an arc, the cycle's G word of a cycle block.
+    pub arc_code: Option<usize>,
+    /// The block starts with a block delete `/`: it runs only with the switch off.
+    pub optional: bool,
+    pub kind: MoveKind,
+}
+
+/// What the lathe's spindle does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Spindle {
+    /// Stopped where the program has not positioned it (at the start, after M5).
+    Free,
+    /// Turning, since M3 or M4 at this line.
+    Turning(usize),
+    /// Positioned (M19 or a C word): an axis like any other.
+    Positioned,
+}
+
+/// The motion mode in force.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Motion {
+    /// G0, G1.
+    Line,
+    /// G2, G3.
+    Arc,
+    /// A drilling cycle.
+    Cycle,
+}
+
+/// The program's modal state, as the controller keeps it between blocks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Modal {
+    /// G20: words are in inch.
+    pub inch: bool,
+    /// G7: X words are diameters (on a lathe).
+    pub diameter: bool,
+    /// G91: axis words are increments.
+    pub incremental: bool,
+    pub motion: Option<Motion>,
+    /// The motion mode is G0 (rapid), not G1.
+    pub rapid: bool,
+    /// G93: F words are inverse times.
+    pub inverse_time: bool,
+    /// Arc plane: 0 G17 (X, Y), 1 G18 (Z, X), 2 G19 (Y, Z), 3 a U/V/W plane.
+    pub plane: u8,
+    /// G90.1: arc centres are absolute.
+    pub arc_absolute: bool,
+    /// The last arc code was G2 (clockwise).
+    pub clockwise: bool,
+    /// Tool-centre-point control is on: X, Y, Z words are the tool tip in the workpiece
+    /// frame ...
+    pub tcp: bool,
+    /// ... and the tool direction is programmed as a vector (I, J, K; G43.5), not by rotary
+    /// words.
+    pub tcp_vector: bool,
+    /// G98: cycles retract to the initial level.
+    pub retract_to_initial: bool,
+    /// The active tool length (mm).
+    pub length: f64,
+    /// The last T number.
+    pub tool: Option<u32>,
+    /// The work offset in force (G54 … by its number times ten).
+    pub work_offset: Option<i64>,
+    /// The active tool chain (index into [`Machine::tool_chains`]).
+    pub chain: usize,
+    /// What a lathe's spindle does.
+    pub spindle: Spindle,
+}
+
+impl Modal {
+    /// The state at the program start, in tool chain `chain`.
+    pub fn start(machine: &Machine, chain: usize) -> Modal {
+        Modal {
+            inch: false,
+            diameter: machine.lathe.is_some_and(|l| l.diameter),
+            incremental: false,
+            motion: None,
+            rapid: false,
+            inverse_time: false,
+            plane: 0,
+            arc_absolute: false,
+            clockwise: true,
+            tcp: false,
+            tcp_vector: false,
+            retract_to_initial: true,
+            length: machine.tool.length,
+            tool: None,
+            work_offset: None,
+            chain,
+            spindle: Spindle::Free,
+        }
+    }
+
+    /// On a lathe: blocks are turning blocks (the spindle turns, or stands where the
+    /// program has not positioned it).
+    pub fn turning(&self, machine: &Machine) -> bool {
+        machine.lathe.is_some() && self.spindle != Spindle::Positioned
+    }
+}
+
+/// Reads a program's blocks one after the other for one machine, following the modal
+/// state it is given.
+#[derive(Debug, Clone)]
+pub struct Reader<'m> {
+    machine: &'m Machine,
+    /// For each tool chain: the variable driven by each letter A..Z, and the variables'
+    /// letters in order (for messages).
+    chains: Vec<ChainWords>,
+    /// Some tool chain lists the tools that select it.
+    tools_listed: bool,
+}
+
+#[derive(Debug, Clone)]
+struct ChainWords {
+    var_of_letter: [Option<usize>; 26],
+    letters: Vec<u8>,
+}
+
+impl<'m> Reader<'m> {
+    pub fn new(machine: &'m Machine) -> Self {
+        let chains = (0..machine.tool_chains.len())
+            .map(|c| {
+                let mut var_of_letter = [None; 26];
+                let mut letters = Vec::new();
+                for (v, &axis) in machine.variables(c).iter().enumerate() {
+                    let letter = machine.axes[axis].word.to_ascii_uppercase() as u8;
+                    if letter.is_ascii_uppercase() && v < MAX_AXES {
+                        var_of_letter[(letter - b'A') as usize] = Some(v);
+                    }
+                    letters.push(letter);
+                }
+                ChainWords {
+                    var_of_letter,
+                    letters,
+                }
+            })
+            .collect();
+        Reader {
+            machine,
+            chains,
+            tools_listed: machine.tool_chains.iter().any(|c| !c.tools.is_empty()),
+        }
+    }
+
+    pub fn machine(&self) -> &'m Machine {
+        self.machine
+    }
+
+    /// The variable that `letter` drives in tool chain `chain`.
+    pub fn var_of_letter(&self, chain: usize, letter: u8) -> Option<usize> {
+        let letter = letter.to_ascii_uppercase();
+        if !letter.is_ascii_uppercase() {
+            return None;
+        }
+        self.chains
+            .get(chain)
+            .and_then(|c| c.var_of_letter[(letter - b'A') as usize])
+    }
+
+    /// The meaning of a G or M code on this machine.
+    pub fn code(&self, letter: u8, code10: i64) -> Code {
+        codes::meaning(CodeName { letter, code10 }, &self.machine.codes)
+    }
+}
