@@ -1,0 +1,172 @@
+//! `nccomp compensate`: its options, and the compensation pass's options it shares with
+//! `check`.
+
+use super::files::{is_std, print, read_file, write_atomically_with};
+use crate::check::Status;
+use crate::compensate::{Compensator, Options};
+use crate::model::{error_file, machine_file};
+use std::io::{Read, Seek, Write};
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub(super) struct CompensateArgs {
+    #[command(flatten)]
+    pass: PassArgs,
+    /// The NC program to compensate; standard input when left out or `-`.
+    #[arg(value_name = "INPUT")]
+    input: Option<PathBuf>,
+    /// Where to write the compensated program; standard output when left out or `-`.
+    #[arg(long, short = 'o', value_name = "OUTPUT")]
+    output: Option<PathBuf>,
+    /// Write nothing; exit 1 with a diff when the --expected file is not byte for byte
+    /// what nccomp writes now (a stale committed output), 0 when it is.
+    #[arg(long, requires = "expected", conflicts_with = "output")]
+    check: bool,
+    /// With --check: the committed compensated program to compare.
+    #[arg(long, value_name = "OUTPUT", requires = "check")]
+    expected: Option<PathBuf>,
+    /// Threads: 1 runs the pass alone; 2 adds a helper that solves blocks ahead on a
+    /// second core. The output is the same either way.
+    #[arg(long, value_name = "N", default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=2))]
+    threads: u64,
+    /// Print no summary.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+}
+
+/// The machine, its errors and the options of the compensation pass (`compensate` and
+/// `check` share them, so a check predicts what compensation will do).
+#[derive(clap::Args)]
+pub(super) struct PassArgs {
+    /// Machine file (TOML): axes, chains, pivot points, travels, tool lengths.
+    #[arg(long, short = 'm', value_name = "MACHINE.toml")]
+    pub(super) machine: PathBuf,
+    /// Error file (TOML): the machine's measured errors (a calibration).
+    #[arg(long, short = 'e', value_name = "ERRORS.toml")]
+    pub(super) errors: PathBuf,
+    /// Tool chain the program starts in on machines with several (e.g. `upper` or `lower`
+    /// turret); the machine file's first by default. T words switch chains where the
+    /// machine file lists each chain's `tools`.
+    #[arg(long, value_name = "NAME")]
+    tool_chain: Option<String>,
+    /// Axes that keep their programmed values, comma-separated (e.g. `C` for a spindle
+    /// that turns, on a machine file without a [lathe] table). Other axes take up the
+    /// correction.
+    #[arg(long, value_name = "AXES", value_delimiter = ',')]
+    hold: Vec<String>,
+    /// Write blocks whose compensated values leave the travel limits anyway, with a
+    /// warning (by default such a block is an error).
+    #[arg(long)]
+    allow_limit_violations: bool,
+    /// Split G1 moves whose compensated path strays more than this (mm) from the nominal
+    /// path between block ends, by inserting blocks; `off` keeps one block out for every
+    /// block in (arcs aside).
+    #[arg(long, value_name = "MM|off", default_value = "0.001", value_parser = path_tolerance)]
+    tolerance: PathLimit,
+    /// The tool direction's tolerance along the path, in µrad.
+    #[arg(long, value_name = "URAD", default_value_t = 10.0)]
+    angular_tolerance: f64,
+}
+
+/// `--tolerance`: a distance in mm, or `off`.
+#[derive(Debug, Clone, Copy)]
+struct PathLimit(Option<f64>);
+
+fn path_tolerance(text: &str) -> Result<PathLimit, String> {
+    if text.eq_ignore_ascii_case("off") {
+        return Ok(PathLimit(None));
+    }
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(PathLimit(Some(v))),
+        _ => Err(format!(
+            "expected a positive distance in mm (e.g. 0.001) or `off`, found `{text}`"
+        )),
+    }
+}
+
+pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
+    let machine = machine_file::load(&args.pass.machine)?;
+    let errors = error_file::load(&args.pass.errors, &machine)?;
+    let options = Options {
+        threads: args.threads as usize,
+        ..args.pass.options()?
+    };
+    let comp = Compensator::new(&machine, &errors, options)?;
+    // The program streams through in bounded memory, to a temporary file that takes the
+    // output's place only when every block has been compensated.
+    let (input, name): (Box<dyn Read>, String) = if is_std(&args.input) {
+        use std::io::IsTerminal;
+        if std::io::stdin().is_terminal() {
+            eprintln!(
+                "nccomp: reading the program from standard input (end with Ctrl-D; see --help)"
+            );
+        }
+        (Box::new(std::io::stdin().lock()), "<stdin>".to_string())
+    } else {
+        let path = args.input.as_deref().unwrap_or(Path::new("-"));
+        let file = std::fs::File::open(path).map_err(|e| crate::Error::io(path, e))?;
+        (Box::new(file), path.display().to_string())
+    };
+    let mut status = Status::Clean;
+    let summary = match (&args.expected, &args.output) {
+        (Some(expected), _) => {
+            let mut out = Vec::new();
+            let summary = comp.run_stream(input, &name, &mut out, "<memory>")?;
+            let (committed, expected_name) = read_file(expected)?;
+            if let Some(diff) = crate::check::stale::compare(&expected_name, &committed, &out) {
+                print(&format!(
+                    "{diff}to update it, run the same command with `-o {expected_name}` in place of `--check --expected {expected_name}`\n"
+                ))?;
+                status = Status::Findings;
+            }
+            summary
+        }
+        (None, Some(path)) if !is_std(&args.output) => write_atomically_with(path, |file| {
+            comp.run_stream(input, &name, file, &path.display().to_string())
+        })?,
+        _ => {
+            // Standard output gets nothing from a failed run either: the program is
+            // spooled to an unnamed temporary file and copied out at the end.
+            let spool_error = |e| crate::Error::io(Path::new("<temporary file>"), e);
+            let mut spool = tempfile::tempfile().map_err(spool_error)?;
+            let summary = comp.run_stream(input, &name, &mut spool, "<temporary file>")?;
+            let mut stdout = std::io::stdout().lock();
+            spool
+                .seek(std::io::SeekFrom::Start(0))
+                .map_err(spool_error)?;
+            std::io::copy(&mut spool, &mut stdout)
+                .and_then(|_| stdout.flush())
+                .map_err(|e| crate::Error::io(Path::new("<stdout>"), e))?;
+            summary
+        }
+    };
+    if !args.quiet {
+        eprintln!("{name}: {summary}");
+    }
+    Ok(status)
+}
+
+impl PassArgs {
+    pub(super) fn options(&self) -> crate::Result<Options> {
+        let v = self.angular_tolerance;
+        if !(v.is_finite() && v > 0.0) {
+            return Err(crate::Error::Usage(format!(
+                "--angular-tolerance {v}: expected a positive number of µrad"
+            )));
+        }
+        Ok(Options {
+            tool_chain: self.tool_chain.clone(),
+            allow_limit_violations: self.allow_limit_violations,
+            hold: self.hold.clone(),
+            path: self
+                .tolerance
+                .0
+                .map(|mm| crate::kinematics::path::PathTolerance {
+                    position: mm,
+                    direction: v * 1e-6,
+                    ..Default::default()
+                }),
+            ..Options::default()
+        })
+    }
+}
