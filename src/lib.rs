@@ -1,8 +1,9 @@
 //! nccomp: compensate five-axis NC programs for a machine's geometric errors.
 //!
 //! The modules are the pipeline, in order: the NC document ([`nc`], lossless parse and
-//! emit) → the machine and its error model ([`model`]) → kinematics and the solve
-//! ([`kinematics`]) → the compensation pass ([`compensate`]). Beside the pipeline:
+//! emit) → what each block means ([`program`], one reader for every command) → the
+//! machine and its error model ([`model`]) → kinematics and the solve ([`kinematics`]) →
+//! the compensation pass ([`compensate`]). Beside the pipeline:
 //!
 //! - [`check`]: the pass over many programs as a CI gate;
 //! - [`report`]: an HTML report on a program's predicted errors and corrections;
