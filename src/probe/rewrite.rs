@@ -24,6 +24,7 @@ use crate::kinematics::{Kinematics, Model};
 use crate::model::{AxisKind, ErrorModel, Machine};
 use crate::nc::number::{decimals_for, fixed, same_text};
 use crate::nc::{self, Edit, Token, TokenKind, Value};
+use crate::program::codes::{self, Code, CodeName, MachineCodes};
 use nalgebra::{Rotation3, Unit, Vector3};
 
 /// Millimetres per inch.
@@ -168,33 +169,40 @@ enum G {
     Harmless,
 }
 
-fn classify(code10: i64) -> G {
+/// What a G code's meaning ([`crate::program::codes`]) is to the probe pass. The pass only
+/// rewrites the F of probing moves, so codes it need not follow (planes, cutter
+/// compensation, codes the table does not know) are harmless to it.
+fn classify(code: Code) -> G {
     use G::*;
-    match code10 {
-        0 => Motion(self::Motion::Rapid),
-        10 => Motion(self::Motion::Feed),
-        20 | 30 => Motion(self::Motion::Arc),
-        382..=385 => Motion(self::Motion::Probe),
-        310..=314 => Skip,
-        730 | 740 | 760 | 810..=890 => Motion(self::Motion::Cycle),
-        40 => Dwell,
-        200 => Inch,
-        210 => Millimetre,
-        900 => Absolute,
-        910 => Incremental,
-        940 => FeedPerMinute,
-        930 => FeedOther("inverse-time feed (G93)"),
-        950 => FeedOther("feed per revolution (G95)"),
-        800 => CycleCancel,
-        100 | 520 | 920..=923 => Data,
-        280 | 281 | 300 | 301 | 530 => Lost,
-        540..=599 => WorkOffset(code10),
-        650 => Call,
-        660 | 661 => Refused("a modal macro call (G66)"),
-        680..=683 => TransformOn("coordinate rotation (G68)"),
-        510 | 511 => TransformOn("scaling or mirroring (G51)"),
-        160 => TransformOn("polar coordinates (G16)"),
-        690 | 500 | 501 | 150 => TransformOff,
+    match code {
+        Code::Line { rapid: true } => Motion(self::Motion::Rapid),
+        Code::Line { rapid: false } => Motion(self::Motion::Feed),
+        Code::Arc { .. } => Motion(self::Motion::Arc),
+        Code::Probe => Motion(self::Motion::Probe),
+        Code::Skip => Skip,
+        Code::Cycle(_) => Motion(self::Motion::Cycle),
+        Code::Dwell => Dwell,
+        Code::Units { inch: true } => Inch,
+        Code::Units { inch: false } => Millimetre,
+        Code::Distance { incremental: false } => Absolute,
+        Code::Distance { incremental: true } => Incremental,
+        Code::Feed {
+            inverse_time: true, ..
+        } => FeedOther("inverse-time feed (G93)"),
+        Code::Feed {
+            per_revolution: true,
+            ..
+        } => FeedOther("feed per revolution (G95)"),
+        Code::Feed { .. } => FeedPerMinute,
+        Code::CancelCycle => CycleCancel,
+        Code::DataSetting(_) => Data,
+        Code::ReturnHome | Code::SetReference | Code::MachineCoordinates => Lost,
+        Code::WorkOffset(code10) => WorkOffset(code10),
+        Code::ExtendedWorkOffset => WorkOffset(541),
+        Code::MacroCall => Call,
+        Code::ModalMacro => Refused("a modal macro call (G66)"),
+        Code::TransformOn(what) => TransformOn(what),
+        Code::TransformOff => TransformOff,
         _ => Harmless,
     }
 }
@@ -250,6 +258,8 @@ struct State {
 
 struct Pass<'a, 'm> {
     axes: Vec<AxisInfo>,
+    /// The machine's own codes (none without a machine file).
+    codes: &'m MachineCodes,
     frame: FrameSource<'m>,
     kin: Option<Kinematics>,
     feed_step: f64,
@@ -293,8 +303,17 @@ pub fn rewrite(
             (axes, Some(kin))
         }
     };
+    static NO_CODES: MachineCodes = MachineCodes {
+        harmless: Vec::new(),
+        tcp_on: Vec::new(),
+        tcp_off: Vec::new(),
+    };
     let pass = Pass {
         axes,
+        codes: match opts.frame {
+            FrameSource::Machine { machine, .. } => &machine.codes,
+            FrameSource::Frame(_) => &NO_CODES,
+        },
         frame: opts.frame,
         kin,
         feed_step: opts.feed_step,
@@ -407,9 +426,15 @@ impl Pass<'_, '_> {
                             ),
                         ));
                     };
-                    let code10 = (number * 10.0).round() as i64;
+                    let code = codes::meaning(
+                        CodeName {
+                            letter: w.letter,
+                            code10: (number * 10.0).round() as i64,
+                        },
+                        self.codes,
+                    );
                     if w.letter == b'G' {
-                        let g = classify(code10);
+                        let g = classify(code);
                         if g == G::Call {
                             call = Some(t.span.start);
                         }
@@ -421,9 +446,9 @@ impl Pass<'_, '_> {
                         }
                         gs.push((g, t.span.start));
                     } else {
-                        match code10 {
-                            970 | 980 | 990 => call = Some(t.span.start),
-                            20 | 300 => end_of_program = true,
+                        match code {
+                            Code::Subprogram => call = Some(t.span.start),
+                            Code::ProgramEnd => end_of_program = true,
                             _ => {}
                         }
                     }

@@ -139,6 +139,8 @@ pub enum Code {
     Diameter { diameter: bool },
     /// G65: a macro call.
     MacroCall,
+    /// G66: a modal macro call (the macro runs after every later move).
+    ModalMacro,
     /// G68, G51, G16 … switch on a transformation of the program's coordinates.
     TransformOn(&'static str),
     /// G69, G50, G15 … switch it off.
@@ -234,7 +236,7 @@ pub fn g_code(code10: i64) -> Code {
         // Exact stop, exact-stop mode, path blending.
         610 | 611 | 640 => Harmless,
         650 => MacroCall,
-        660 | 661 => Unsupported("a modal macro call (G66)"),
+        660 | 661 => ModalMacro,
         680..=689 => TransformOn("coordinate rotation (G68)"),
         690 => TransformOff,
         730 | 810..=860 | 880 | 890 => Cycle(self::Cycle::Drill),

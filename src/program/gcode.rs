@@ -258,6 +258,7 @@ impl Reader<'_> {
                         | Code::Probe
                         | Code::Skip
                         | Code::MacroCall
+                        | Code::ModalMacro
                         | Code::ExtendedWorkOffset
                         | Code::Cycle(Cycle::Other(_))) => {
                             let what = match code {
@@ -268,6 +269,7 @@ impl Reader<'_> {
                                 Code::Probe => "probing (G38.x)",
                                 Code::Skip => "a skip (probing) move (G31)",
                                 Code::MacroCall => "a macro call (G65)",
+                                Code::ModalMacro => "a modal macro call (G66)",
                                 Code::ExtendedWorkOffset => "an extended work offset (G54.1)",
                                 _ => "this G code",
                             };
