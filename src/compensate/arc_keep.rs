@@ -11,13 +11,12 @@
 //! is replaced by straight pieces (`arcs`).
 
 use super::exact::Unit;
-use super::split::Style;
-use super::{Edit, INCH, Pass, State};
+use super::pipeline::{Cx, Out};
+use super::{INCH, Pass, State};
 use crate::kinematics::path::PathTolerance;
-use crate::kinematics::{MAX_AXES, Model, angle_between};
+use crate::kinematics::{MAX_AXES, Model, Solution, angle_between};
 use crate::nc::number::{same_text, scaled, write_fixed};
-use crate::nc::{self, Token, TokenKind, Value};
-use crate::program::BlockMotion;
+use crate::nc::{TokenKind, Value};
 use std::f64::consts::TAU;
 
 /// An arc in axis space: a (possibly spiral) circle in the plane of variables `va`, `vb`,
@@ -94,28 +93,24 @@ fn circle_centre(p: [(f64, f64); 3]) -> Option<(f64, f64)> {
     ))
 }
 
-/// The words to write for a kept arc: the compensated end (axis values) and the centre
-/// words' new values in program units (`None`: unchanged or not needed).
-pub(super) struct KeptArc {
-    pub end: [f64; MAX_AXES],
-    pub end_solution: crate::kinematics::Solution,
-    /// (token index or the letter to add, number text) for I/J/K or R.
-    pub centre_words: Vec<(Result<usize, u8>, String)>,
-}
+/// A kept arc's centre words: (token index, or the letter to add; number text) for
+/// I/J/K or R.
+pub(super) type CentreWords = Vec<(Result<usize, u8>, String)>;
 
 impl Pass<'_> {
-    /// The kept arc for `nominal` (an arc block whose words `motion` and `tokens` hold), if
-    /// what the controller makes of it stays within `tol` of the nominal arc.
-    #[allow(clippy::too_many_arguments)]
+    /// The centre words of the arc `nominal` kept as an arc (the block `cx`, its end solved
+    /// as `end_solution`), if what the controller makes of it stays within `tol` of the
+    /// nominal arc.
     pub(super) fn keep_arc(
         &self,
         nominal: &ArcPath,
-        tokens: &[Token],
-        motion: &BlockMotion,
+        end_solution: &Solution,
+        cx: &Cx<'_, '_>,
         centre_letters: [u8; 2],
         state: &State,
         tol: &PathTolerance,
-    ) -> Option<KeptArc> {
+    ) -> Option<CentreWords> {
+        let (tokens, motion) = (cx.tokens, &cx.motion);
         let n = self.kin.len();
         let length = state.modal.length;
         let solve = |s: f64| {
@@ -126,7 +121,6 @@ impl Pass<'_> {
                 &self.options.solve,
             )
         };
-        let end_solution = solve(1.0);
         // A rotary axis held at a singular pose or a solve that failed: the straight pieces
         // deal with it.
         if end_solution.position_residual > 1e-6 {
@@ -279,55 +273,34 @@ impl Pass<'_> {
                 return None;
             }
         }
-        Some(KeptArc {
-            end: end_solution.q,
-            end_solution,
-            centre_words,
-        })
+        Some(centre_words)
     }
 
     /// Edits for the centre words of a kept arc: changed numbers in place, missing words
     /// after the block's last axis or centre word.
     pub(super) fn centre_edits(
         &self,
-        line: &nc::Line<'_>,
-        tokens: &[Token],
-        motion: &BlockMotion,
+        cx: &Cx<'_, '_>,
         words: &[(Result<usize, u8>, String)],
-        edits: &mut Vec<Edit>,
+        out: &mut Out<'_>,
     ) {
-        let style = Style::of(line.content, tokens);
-        let last = motion
+        let last = cx
+            .motion
             .axis_words
             .iter()
-            .chain(&motion.arc_words)
+            .chain(&cx.motion.arc_words)
             .flatten()
-            .map(|&i| tokens[i].span.end)
+            .map(|&i| cx.tokens[i].span.end)
             .max()
             .unwrap_or(0);
-        let mut added = String::new();
+        let mut editor = cx.editor(out.edits);
+        let mut added: Vec<(u8, &str)> = Vec::new();
         for (word, text) in words {
             match word {
-                Ok(i) => {
-                    if let TokenKind::Word(w) = &tokens[*i].kind {
-                        edits.push(Edit {
-                            at: w.value_span.clone(),
-                            text: text.clone().into(),
-                        });
-                    }
-                }
-                Err(letter) => {
-                    added.push_str(style.separator);
-                    added.push_str(&style.letter(*letter));
-                    added.push_str(text);
-                }
+                Ok(i) => editor.replace_number(*i, text.as_str()),
+                Err(letter) => added.push((*letter, text)),
             }
         }
-        if !added.is_empty() {
-            edits.push(Edit {
-                at: last..last,
-                text: added.into(),
-            });
-        }
+        editor.insert_words_at(last, &added);
     }
 }

@@ -1,8 +1,9 @@
 //! Arcs (G2/G3 in G17/G18/G19, centres by I/J/K or a radius R).
 //!
 //! A controller interpolates an arc in the program's coordinates; on a machine with errors
-//! no arc in axis space traces the intended arc on the part. nccomp replaces each arc by
-//! straight pieces whose chords stay within half a micron of the nominal arc, each piece's
+//! no arc in axis space traces the intended arc on the part. An arc is kept as an arc where
+//! what the controller makes of its compensated end and centre stays within the path
+//! tolerance (`arc_keep`); otherwise nccomp replaces it by straight pieces whose chords stay within half a micron of the nominal arc, each piece's
 //! end compensated like any block (pieces are not split further by `--tolerance`; they are
 //! short already). The arc's own line becomes the last piece: its G2/G3 turns into G1 and
 //! its I/J/K/R words go; the pieces before it are inserted in the program's style, the
@@ -11,13 +12,14 @@
 
 use super::arc_keep::ArcPath;
 use super::exact::Position;
-use super::split::Style;
-use super::{Edit, INCH, Pass, State, Summary, axis_order};
+use super::pipeline::{Cx, Mode, Out};
+use super::{INCH, Pass, State};
 use crate::diag::Diagnostic;
-use crate::kinematics::MAX_AXES;
+use crate::kinematics::{MAX_AXES, Solution};
 use crate::model::AxisKind;
+use crate::nc::edit::Editor;
 use crate::nc::number::{same_text, write_fixed};
-use crate::nc::{self, Token, TokenKind, Value};
+use crate::nc::{Token, TokenKind, Value};
 use crate::program::BlockMotion;
 use std::f64::consts::TAU;
 use std::fmt::Write;
@@ -38,149 +40,153 @@ fn plane_letters(plane: u8) -> Option<([u8; 2], [u8; 2])> {
     }
 }
 
-impl Pass<'_> {
-    /// One G2/G3 block.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn arc_block(
-        &self,
-        line: &nc::Line<'_>,
-        tokens: &[Token],
-        motion: &BlockMotion,
-        clockwise: bool,
-        state: &mut State,
-        edits: &mut Vec<Edit>,
-        summary: &mut Summary,
-        at: &dyn Fn(usize, String) -> Diagnostic,
-    ) -> Result<(), Diagnostic> {
-        let n = self.kin.len();
-        let axis_words = &motion.axis_words;
-        let col = motion
+/// A G2/G3 block in machine axes.
+pub(super) struct ArcMode {
+    clockwise: bool,
+    /// The arc as programmed (set by the target stage).
+    path: Option<ArcPath>,
+    /// Kept as an arc: its centre words.
+    kept: Option<Vec<(Result<usize, u8>, String)>>,
+    /// Replaced by straight pieces: how many (the block itself is the last).
+    pieces: usize,
+}
+
+impl ArcMode {
+    pub(super) fn new(clockwise: bool) -> Self {
+        ArcMode {
+            clockwise,
+            path: None,
+            kept: None,
+            pieces: 0,
+        }
+    }
+
+    /// The column of the block's G2/G3 word, or of its first axis word.
+    fn col(cx: &Cx<'_, '_>) -> usize {
+        cx.motion
             .arc_code
-            .map(|i| tokens[i].span.start)
-            .or_else(|| {
-                axis_words
-                    .iter()
-                    .flatten()
-                    .map(|&i| tokens[i].span.start)
-                    .min()
-            })
-            .unwrap_or(0);
-        let refuse = |why: &str| Err(at(col, format!("this arc cannot be compensated: {why}")));
+            .map_or_else(|| cx.first_col(), |i| cx.col(i))
+    }
+}
+
+impl Mode for ArcMode {
+    fn target(
+        &mut self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<Option<[f64; MAX_AXES]>, Diagnostic> {
+        let n = pass.kin.len();
+        let col = Self::col(cx);
+        let refuse =
+            |why: &str| Err(cx.refuse(col, format!("this arc cannot be compensated: {why}")));
         if state.modal.incremental {
             return refuse(
                 "arcs in incremental mode (G91) are not supported (program them in G90)",
             );
         }
-        if motion.optional {
+        if cx.motion.optional {
             return refuse("an optional block (/) with an arc is not supported");
         }
-        if state.modal.tcp {
-            return refuse("arcs under tool-centre-point control (G43.4/G43.5) are not supported");
-        }
-        let m_or_t = tokens
-            .iter()
-            .find(|t| matches!(&t.kind, TokenKind::Word(w) if matches!(w.letter, b'M' | b'T')));
-        if state.modal.inverse_time
-            && !tokens
-                .iter()
-                .any(|t| matches!(&t.kind, TokenKind::Word(w) if w.letter == b'F'))
-        {
+        if state.modal.inverse_time && cx.word(b'F').is_none() {
             return refuse("in inverse-time feed (G93) an arc needs its own F word");
         }
-        let path = self
-            .arc_path(tokens, motion, clockwise, state)
-            .map_err(|why| at(col, format!("this arc cannot be compensated: {why}")))?;
-        for (v, word) in axis_words.iter().enumerate().take(n) {
+        let path = pass
+            .arc_path(cx.tokens, &cx.motion, self.clockwise, state)
+            .map_err(|why| cx.refuse(col, format!("this arc cannot be compensated: {why}")))?;
+        for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
             // Axes turning holds are not corrected.
-            if state.programmed & (1 << v) == 0 && word.is_none() && self.idle & (1 << v) == 0 {
-                summary.note_assumed_home(self.axis_name(v), line.number);
+            if state.programmed & (1 << v) == 0 && word.is_none() && pass.idle & (1 << v) == 0 {
+                out.summary
+                    .note_assumed_home(pass.axis_name(v), cx.line.number);
             }
             if word.is_some() {
                 state.programmed |= 1 << v;
             }
         }
-        let ArcPath {
-            r0, r1, sweep, end, ..
-        } = path;
+        pass.check_travel(&path.end, col, cx)?;
+        state.nominal = path.end;
+        self.path = Some(path);
+        Ok(Some(path.end))
+    }
+
+    fn path(
+        &mut self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        end: &Solution,
+        hold: u32,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<(), Diagnostic> {
+        let n = pass.kin.len();
+        let Some(path) = self.path else {
+            return Ok(());
+        };
+        let col = Self::col(cx);
         let Some((_, centre_letters)) = plane_letters(state.modal.plane) else {
-            unreachable!("arc_path accepts only the three planes");
+            return Ok(());
         };
         // Kept as an arc where what the controller makes of the compensated words stays
         // within the path tolerance (the default one under --tolerance off).
-        let tolerance = self.options.path.unwrap_or_default();
-        if let Some(kept) = self.keep_arc(&path, tokens, motion, centre_letters, state, &tolerance)
-        {
-            self.check_piece(&end, &kept.end, col, at)?;
-            state.nominal = end;
-            self.write_positions(
-                line, tokens, axis_words, &kept.end, false, state, edits, summary, at,
-            )?;
-            for (word, _) in &kept.centre_words {
-                match word {
-                    Ok(_) => summary.words_changed += 1,
-                    Err(_) => summary.words_added += 1,
-                }
-            }
-            self.centre_edits(line, tokens, motion, &kept.centre_words, edits);
-            self.record_block(line.number, &kept.end_solution, state, summary);
-            summary.note_arc_kept();
+        let tolerance = pass.options.path.unwrap_or_default();
+        if let Some(kept) = pass.keep_arc(&path, end, cx, centre_letters, state, &tolerance) {
+            self.kept = Some(kept);
             return Ok(());
         }
-        if let Some(t) = m_or_t {
-            return Err(at(
-                t.span.start,
+        if let Some(i) = cx
+            .tokens
+            .iter()
+            .position(|t| matches!(&t.kind, TokenKind::Word(w) if matches!(w.letter, b'M' | b'T')))
+        {
+            return Err(cx.refuse(
+                cx.col(i),
                 "this arc must be replaced by straight pieces (kept as an arc it strays from the path) and cannot be with an M or T word in its block: the word would run only after the first pieces (put it in a block of its own)".into(),
             ));
         }
-        let radius = r0.max(r1);
+        let radius = path.r0.max(path.r1);
         let step = 2.0 * (1.0 - (CHORD / radius).min(1.0)).acos();
-        let pieces = ((sweep.abs() / step).ceil() as usize).max(1);
+        let pieces = ((path.sweep.abs() / step).ceil() as usize).max(1);
         if pieces > MAX_PIECES {
-            return refuse(&format!("it would take {pieces} straight pieces"));
+            return Err(cx.refuse(
+                col,
+                format!("this arc cannot be compensated: it would take {pieces} straight pieces"),
+            ));
         }
+        self.pieces = pieces;
         // The inserted pieces, then the arc's own line as the last one.
-        let style = Style::of(line.content, tokens);
-        let numbers = self.inserted_numbers(tokens, line.content, state, pieces - 1);
-        let ending = if line.ending.is_empty() {
-            "\n"
-        } else {
-            std::str::from_utf8(line.ending).unwrap_or("\n")
-        };
-        let mut order: Vec<usize> = (0..n).collect();
-        order.sort_by_key(|&v| axis_order(self.letter(v)));
-        let f_word = tokens
-            .iter()
-            .find(|t| matches!(&t.kind, TokenKind::Word(w) if w.letter == b'F'));
+        let mut editor = cx.editor(out.edits);
+        let style = editor.style();
+        let numbers = editor.inserted_numbers(state.last_n, pieces - 1);
+        let ending = Editor::ending(cx.line.ending);
+        let f_word = cx.word(b'F');
         let mut text = String::new();
         for k in 1..pieces {
             let q = path.point(k as f64 / pieces as f64, n);
-            let sol =
-                self.kin
-                    .compensate(&q[..n], state.modal.length, self.hold, &self.options.solve);
-            self.check_piece(&q, &sol.q, col, at)?;
+            pass.check_travel(&q, col, cx)?;
+            let (sol, _) = pass.solve(&q, hold, cx, state)?;
             let mut words: Vec<String> = Vec::new();
             if let Some(number) = &numbers[k - 1] {
-                words.push(style.letter(b'N') + number);
+                words.push(style.word(b'N', number));
             }
             if k == 1 {
                 // The block's own modal words, so the first piece runs as the block would.
-                for (ti, t) in tokens.iter().enumerate() {
+                for (ti, t) in cx.tokens.iter().enumerate() {
                     if let TokenKind::Word(w) = &t.kind
                         && matches!(w.letter, b'G' | b'H' | b'D' | b'S')
-                        && Some(ti) != motion.arc_code
+                        && Some(ti) != cx.motion.arc_code
                     {
-                        words.push(
-                            String::from_utf8_lossy(&line.content[t.span.clone()]).into_owned(),
-                        );
+                        words.push(String::from_utf8_lossy(editor.text(ti)).into_owned());
                     }
                 }
-                words.push(style.letter(b'G') + "1");
+                words.push(style.word(b'G', "1"));
             }
-            for &v in &order {
-                let unit = self.unit(v, &state.modal);
+            for &v in &pass.write_order {
+                let unit = pass.unit(v, &state.modal);
                 let value = unit.of_mm(sol.q[v]);
                 let emitted = unit.of_mm(state.emitted[v]);
-                let d = state.decimals[v].max(self.res_decimals(v, unit));
+                let d = state.decimals[v].max(pass.res_decimals(v, unit));
                 if same_text(emitted, value, d) {
                     continue;
                 }
@@ -193,97 +199,90 @@ impl Pass<'_> {
                     decimals: d,
                     unit,
                 };
-                words.push(style.letter(self.letter(v)) + &number);
+                words.push(style.word(pass.letter(v), &number));
             }
             if let Some(f) = f_word
-                && let TokenKind::Word(w) = &f.kind
-                && let Value::Number { value, decimals } = w.value
+                && let Some((value, decimals)) = editor.number(f)
             {
                 if state.modal.inverse_time {
                     let mut number = String::new();
                     write_fixed(value * pieces as f64, decimals.max(3) + 1, &mut number);
-                    words.push(style.letter(b'F') + &number);
+                    words.push(style.word(b'F', &number));
                 } else if k == 1 {
-                    words.push(String::from_utf8_lossy(&line.content[f.span.clone()]).into_owned());
+                    words.push(String::from_utf8_lossy(editor.text(f)).into_owned());
                 }
             }
-            self.record_block(line.number, &sol, state, summary);
+            pass.record(cx.line.number, &sol, state, out.summary);
             let _ = write!(text, "{}{}", words.join(style.separator), ending);
         }
-        if pieces > 1 {
-            edits.push(Edit {
-                at: 0..0,
-                text: text.into(),
-            });
-        }
-        // The arc's own line: G1, no centre words, its end compensated.
-        if let Some(i) = motion.arc_code {
-            let t = &tokens[i];
-            if let TokenKind::Word(w) = &t.kind {
-                let digits = &line.content[w.value_span.clone()];
-                let text = if digits.first() == Some(&b'0') {
-                    "01"
-                } else {
-                    "1"
-                };
-                edits.push(Edit {
-                    at: w.value_span.clone(),
-                    text: text.into(),
-                });
-            }
-        } else if pieces == 1 {
-            // A modal arc of one piece: the motion mode must become G1 here.
-            let first = axis_words
-                .iter()
-                .flatten()
-                .map(|&i| tokens[i].span.start)
-                .min()
-                .unwrap_or(0);
-            edits.push(Edit {
-                at: first..first,
-                text: (style.letter(b'G') + "1" + style.separator).into(),
-            });
-        }
-        for i in motion.arc_words.iter().flatten() {
-            let t = &tokens[*i];
-            // The word and the space before it.
-            let start = tokens
-                .iter()
-                .position(|x| x.span.end == t.span.start && x.kind == TokenKind::Space)
-                .map_or(t.span.start, |p| tokens[p].span.start);
-            edits.push(Edit {
-                at: start..t.span.end,
-                text: Vec::new(),
-            });
-        }
-        if state.modal.inverse_time
-            && let Some(f) = f_word
-            && let TokenKind::Word(w) = &f.kind
-            && let Value::Number { value, decimals } = w.value
-        {
-            let mut number = String::new();
-            write_fixed(value * pieces as f64, decimals.max(3) + 1, &mut number);
-            edits.push(Edit {
-                at: w.value_span.clone(),
-                text: number.into(),
-            });
-        }
-        state.nominal = end;
-        let sol = self.kin.compensate(
-            &end[..n],
-            state.modal.length,
-            self.hold,
-            &self.options.solve,
-        );
-        self.check_piece(&end, &sol.q, col, at)?;
-        summary.note_arc(line.number, pieces - 1);
-        self.write_positions(
-            line, tokens, axis_words, &sol.q, false, state, edits, summary, at,
-        )?;
-        self.record_block(line.number, &sol, state, summary);
+        editor.insert_blocks(text);
         Ok(())
     }
 
+    fn write(
+        &mut self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        end: &Solution,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<(), Diagnostic> {
+        if let Some(centre_words) = &self.kept {
+            pass.write_positions(cx, &end.q, false, state, out)?;
+            for (word, _) in centre_words {
+                match word {
+                    Ok(_) => out.summary.words_changed += 1,
+                    Err(_) => out.summary.words_added += 1,
+                }
+            }
+            pass.centre_edits(cx, centre_words, out);
+            out.summary.note_arc_kept();
+            return Ok(());
+        }
+        // The arc's own line: G1, no centre words, its end compensated.
+        let pieces = self.pieces;
+        let mut editor = cx.editor(out.edits);
+        if let Some(i) = cx.motion.arc_code {
+            let digits = editor
+                .word(i)
+                .map_or(&b""[..], |w| &cx.line.content[w.value_span.clone()]);
+            let text = if digits.first() == Some(&b'0') {
+                "01"
+            } else {
+                "1"
+            };
+            editor.replace_number(i, text);
+        } else if pieces == 1 {
+            // A modal arc of one piece: the motion mode must become G1 here.
+            let style = editor.style();
+            let first = cx
+                .motion
+                .axis_words
+                .iter()
+                .flatten()
+                .copied()
+                .min_by_key(|&i| cx.col(i));
+            if let Some(first) = first {
+                editor.insert_before_word(first, &(style.word(b'G', "1") + style.separator));
+            }
+        }
+        for i in cx.motion.arc_words.iter().flatten() {
+            editor.remove_word(*i);
+        }
+        if state.modal.inverse_time
+            && let Some(f) = cx.word(b'F')
+            && let Some((value, decimals)) = editor.number(f)
+        {
+            let mut number = String::new();
+            write_fixed(value * pieces as f64, decimals.max(3) + 1, &mut number);
+            editor.replace_number(f, number);
+        }
+        out.summary.note_arc(cx.line.number, pieces - 1);
+        pass.write_positions(cx, &end.q, false, state, out)
+    }
+}
+
+impl Pass<'_> {
     /// The arc a G2/G3 block describes from `state.nominal`, in the program's axis values;
     /// `Err` says why it cannot be followed. The state is left as it is.
     pub(super) fn arc_path(
@@ -403,50 +402,29 @@ impl Pass<'_> {
         })
     }
 
-    /// A piece's nominal point must lie within the travel, and its correction must be
-    /// small (as for any block).
-    pub(super) fn check_piece(
+    /// A point of a move, as programmed, must lie within the travel.
+    pub(super) fn check_travel(
         &self,
         nominal: &[f64; MAX_AXES],
-        compensated: &[f64; MAX_AXES],
         col: usize,
-        at: &dyn Fn(usize, String) -> Diagnostic,
+        cx: &Cx<'_, '_>,
     ) -> Result<(), Diagnostic> {
-        for v in 0..self.kin.len() {
+        if self.options.allow_limit_violations {
+            return Ok(());
+        }
+        for (v, &x) in nominal.iter().enumerate().take(self.kin.len()) {
             if let Some([lo, hi]) = self.travel(v)
-                && !self.options.allow_limit_violations
+                && (x < lo - 1e-9 || x > hi + 1e-9)
             {
-                for (x, what) in [
-                    (nominal[v], "the arc takes"),
-                    (compensated[v], "after compensation the arc takes"),
-                ] {
-                    if x < lo - 1e-9 || x > hi + 1e-9 {
-                        return Err(at(
-                            col,
-                            format!(
-                                "{what} axis {} to {x:.4}, outside its travel {lo} … {hi} (use --allow-limit-violations to write it anyway)",
-                                self.axis_name(v)
-                            ),
-                        )
-                        .with_code(super::TRAVEL_LIMIT));
-                    }
-                }
-            }
-            let delta = (compensated[v] - nominal[v]).abs();
-            let limit = if self.is_linear(v) {
-                self.options.max_correction.0
-            } else {
-                self.options.max_correction.1
-            };
-            if delta.is_nan() || delta > limit {
-                return Err(at(
-                    col,
-                    format!(
-                        "the correction of axis {} would be {delta:.4} {} on this arc (more than {limit}); the error model or this pose is not sound",
-                        self.axis_name(v),
-                        if self.is_linear(v) { "mm" } else { "°" }
-                    ),
-                ));
+                return Err(cx
+                    .refuse(
+                        col,
+                        format!(
+                            "the move takes axis {} to {x:.4}, outside its travel {lo} … {hi} (use --allow-limit-violations to write it anyway)",
+                            self.axis_name(v)
+                        ),
+                    )
+                    .with_code(super::TRAVEL_LIMIT));
             }
         }
         Ok(())

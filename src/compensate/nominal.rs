@@ -3,6 +3,7 @@
 //! as the compensation pass reads them; nothing is solved or written.
 
 use super::arc_keep::ArcPath;
+use super::pipeline::{Cx, Out};
 use super::{Compensator, Pass, State, Summary};
 use crate::diag::{Diagnostic, Error};
 use crate::kinematics::{Kinematics, MAX_AXES};
@@ -225,16 +226,18 @@ impl Pass<'_> {
                 Shape::Arc(arc)
             }
             MoveKind::Program => {
-                self.advance_nominal(
+                let cx = Cx {
                     line,
                     tokens,
-                    &motion.axis_words,
-                    motion.optional,
-                    state,
-                    summary,
+                    motion: *motion,
                     at,
-                    &mut [0; MAX_AXES],
-                )?;
+                };
+                let mut edits = Vec::new();
+                let mut out = Out {
+                    edits: &mut edits,
+                    summary,
+                };
+                self.advance_nominal(&cx, state, &mut out, &mut [0; MAX_AXES])?;
                 if state.modal.rapid {
                     Shape::Rapid
                 } else {

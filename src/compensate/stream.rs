@@ -9,6 +9,7 @@
 
 use std::io::{ErrorKind, Read, Write};
 
+use super::pipeline::{Cx, Out};
 use super::presolve::{Ahead, Predictor, START_SHARE, balance};
 use super::{Compensator, State, Summary};
 use crate::diag::{Diagnostic, Error};
@@ -70,13 +71,21 @@ impl<'c, 'm> Run<'c, 'm> {
         let tokens = &self.tokens;
         let edits = &mut self.edits;
         let blocks = summary.motion_blocks;
-        let result =
-            comp.read(line, tokens, state, summary, &at)
-                .and_then(|motion| match motion {
-                    Some(motion) => comp.passes[state.pass]
-                        .block(line, tokens, motion, state, edits, summary, &at),
-                    None => Ok(()),
-                });
+        let result = comp
+            .read(line, tokens, state, summary, &at)
+            .and_then(|motion| match motion {
+                Some(motion) => {
+                    let cx = Cx {
+                        line,
+                        tokens,
+                        motion,
+                        at: &at,
+                    };
+                    let mut out = Out { edits, summary };
+                    comp.passes[state.pass].block(&cx, state, &mut out)
+                }
+                None => Ok(()),
+            });
         let pass = &comp.passes[state.pass];
         if summary.motion_blocks > blocks {
             if pass.turning {
@@ -101,7 +110,7 @@ impl<'c, 'm> Run<'c, 'm> {
         if let Some(number) = tokens.iter().find_map(|t| match &t.kind {
             TokenKind::Word(w) if w.letter == b'N' => {
                 let digits = &line.content[w.value_span.clone()];
-                block_number(digits).map(|v| (v, digits.len()))
+                block_number(digits)
             }
             _ => None,
         }) {

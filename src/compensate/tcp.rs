@@ -1,19 +1,973 @@
-//! Tool-centre-point blocks (G43.4): X, Y, Z are the tool tip in the workpiece frame and
-//! the rotary words the rotary axes' positions; the controller solves the linear axes with
-//! its nominal kinematics.
+//! Tool-centre-point moves: G43.4 (and a machine's own TCP switch, such as LinuxCNC's
+//! M428) with rotary words, G43.5 with tool vectors. X, Y, Z are the tool tip in the
+//! workpiece frame; the controller finds the axis values with its *nominal* inverse
+//! kinematics.
 //!
-//! nccomp finds the axis values the real machine needs for the intended pose, then writes
-//! the tip at which the nominal machine would sit there, and the rotary values themselves:
-//! the controller's nominal solve of what is written lands the real machine on the pose
-//! (`kinematics::tcp`).
+//! Target: the nominal inverse kinematics of the programmed tip and rotary words (the
+//! linear axes; the rotary axes are the words) or tool vector (all axes: of the solutions
+//! the controller takes the one nearest the axes' current values, a rotary axis along the
+//! tool keeps its current value).
+//!
+//! Write: the tip and direction at which the nominal machine sits at the solved axis
+//! values, so that the controller's nominal solve of what is written commands exactly the
+//! axis values the real machine needs (design/model.md, "Output rule"). Under G43.5 the
+//! vector is written with as many decimals as make the controller's solve of it land on
+//! those rotary values within the machine's resolution; at a singular pose (the tool along
+//! a rotary axis) the rotary axes keep their programmed values, so the vector is written as
+//! programmed and the controller holds the free axis where it is.
+//!
+//! Path: the controller moves the tip on a straight line (or an arc) in the workpiece frame
+//! and the rotary axes linearly between the block's ends (LinuxCNC's planner, Fanuc's
+//! conventional TCP, Heidenhain's PATHCTRL AXIS). A move is split where the real machine,
+//! following the written words that way, leaves the nominal path of the programmed words by
+//! more than the tolerance; an arc is replaced by straight TCP moves within half a micron
+//! of it, each end compensated. Inserted blocks are TCP blocks in the program's style.
 
 use super::exact::{Position, Unit};
-use super::{Edit, INCH, Pass, State, Summary};
+use super::pipeline::{Cx, Mode, Out};
+use super::{INCH, Pass, State};
 use crate::diag::Diagnostic;
-use crate::kinematics::{MAX_AXES, Model};
+use crate::kinematics::path::{MOVE_PIECES, PathTolerance};
+use crate::kinematics::{MAX_AXES, Model, Pose, Solution, SolveOptions, angle_between};
 use crate::model::AxisKind;
-use crate::nc::number::{same_text, write_fixed};
-use crate::nc::{self, Token, TokenKind, Value};
+use crate::nc::edit::Editor;
+use crate::nc::number::{decimals_for, same_text, write_fixed, write_fixed_value};
+use nalgebra::Vector3;
+use std::f64::consts::TAU;
+use std::fmt::Write;
+
+/// Largest distance (mm) of a chord from the tip's arc.
+const CHORD: f64 = 0.0005;
+/// More pieces than this for one arc means a radius or a tolerance that makes no sense.
+const MAX_ARC_PIECES: usize = 100_000;
+/// Decimals of a tool vector's components, at most.
+const MAX_VECTOR_DECIMALS: u8 = 10;
+
+/// The tip's arc of a G2/G3 block under TCP: in the plane of two tip components.
+#[derive(Debug, Clone, Copy)]
+struct TipArc {
+    /// The plane's tip components (0 X, 1 Y, 2 Z).
+    a: usize,
+    b: usize,
+    centre: (f64, f64),
+    r0: f64,
+    r1: f64,
+    th0: f64,
+    sweep: f64,
+}
+
+/// One end of a piece of a TCP move, as programmed and as written.
+#[derive(Debug, Clone, Copy)]
+struct End {
+    /// Parameter along the block's move.
+    s: f64,
+    /// The controller's axis values for the written words.
+    ctrl: [f64; MAX_AXES],
+    /// The written tip (mm).
+    tip: Vector3<f64>,
+    /// The written tool vector (G43.5, as written: not normalised).
+    vector: [f64; 3],
+    solution: Option<Solution>,
+}
+
+/// A TCP block.
+pub(super) struct TcpMode {
+    /// G2/G3: clockwise or not.
+    arc: Option<bool>,
+    tips: [usize; 3],
+    /// The move's start: nominal axis values, programmed tip, and the controller's end of
+    /// the previous block.
+    q0: [f64; MAX_AXES],
+    tip0: Vector3<f64>,
+    start: Option<End>,
+    /// The programmed tool vector's length (G43.5), kept in what is written.
+    scale: f64,
+    tip_arc: Option<TipArc>,
+    /// The axes the solve holds beyond the pass's: under G43.5 the rotary axes at a
+    /// singular pose.
+    hold: u32,
+    /// Points inserted before the block, in order.
+    pieces: Vec<End>,
+    /// The block's end as written.
+    end: Option<End>,
+}
+
+impl TcpMode {
+    pub(super) fn line() -> Self {
+        Self::new(None)
+    }
+
+    pub(super) fn arc(clockwise: bool) -> Self {
+        Self::new(Some(clockwise))
+    }
+
+    fn new(arc: Option<bool>) -> Self {
+        TcpMode {
+            arc,
+            tips: [0; 3],
+            q0: [0.0; MAX_AXES],
+            tip0: Vector3::zeros(),
+            start: None,
+            scale: 1.0,
+            tip_arc: None,
+            hold: 0,
+            pieces: Vec::new(),
+            end: None,
+        }
+    }
+}
+
+/// The name of the TCP mode for messages.
+fn code(state: &State) -> &'static str {
+    if state.modal.tcp_vector {
+        "G43.5"
+    } else {
+        "G43.4"
+    }
+}
+
+impl Mode for TcpMode {
+    fn target(
+        &mut self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<Option<[f64; MAX_AXES]>, Diagnostic> {
+        let n = pass.kin.len();
+        let code = code(state);
+        let first = cx
+            .motion
+            .axis_words
+            .iter()
+            .chain(&cx.motion.arc_words)
+            .flatten()
+            .map(|&i| cx.col(i))
+            .min()
+            .unwrap_or(0);
+        if state.modal.incremental {
+            return Err(cx.refuse(first, format!("incremental moves (G91) under {code} cannot be compensated (program the TCP part in G90)")));
+        }
+        if cx.motion.optional {
+            return Err(cx.refuse(first, format!("an optional block (/) under {code} cannot be compensated safely (take it out of the TCP part)")));
+        }
+        let Some(tips) = pass.tip_vars() else {
+            return Err(cx.refuse(
+                first,
+                format!("{code} needs linear axes driven by X, Y and Z words for the tool tip; this machine has none"),
+            ));
+        };
+        self.tips = tips;
+        let vector = state.modal.tcp_vector;
+        if vector && self.arc.is_some() {
+            return Err(cx.refuse(
+                first,
+                "arcs under G43.5 cannot be compensated: I, J, K are the tool vector there (program the arc as G1 moves, or under G43.4)".into(),
+            ));
+        }
+        if vector {
+            for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
+                if let Some(i) = *word
+                    && !tips.contains(&v)
+                {
+                    return Err(cx.refuse(
+                        cx.col(i),
+                        format!(
+                            "{} is a rotary word; under G43.5 the tool direction is programmed by I, J, K (expected X, Y, Z, I, J, K)",
+                            pass.letter(v) as char
+                        ),
+                    ));
+                }
+            }
+        }
+        let to_mm = |x: f64| if state.modal.inch { x * INCH } else { x };
+        // Where the move starts.
+        self.q0 = state.nominal;
+        self.tip0 = Vector3::from(state.tip_nominal);
+        self.start = Some(End {
+            s: 0.0,
+            ctrl: state.emitted,
+            tip: Vector3::from(state.tip_written),
+            vector: state.vector_written,
+            solution: None,
+        });
+        for v in 0..n {
+            if state.programmed & (1 << v) == 0 && cx.motion.axis_words[v].is_none() {
+                out.summary
+                    .note_assumed_home(pass.axis_name(v), cx.line.number);
+            }
+        }
+        // The programmed end: tip, and rotary words or vector.
+        let mut guess = state.nominal;
+        for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
+            let Some(i) = *word else { continue };
+            let value = cx.number(i).0;
+            match tips.iter().position(|&t| t == v) {
+                Some(c) => state.tip_nominal[c] = to_mm(value),
+                None => guess[v] = value,
+            }
+        }
+        let tip = Vector3::from(state.tip_nominal);
+        let nominal = if vector {
+            let given = cx.motion.arc_words[..3].iter().any(Option::is_some);
+            if given {
+                for c in 0..3 {
+                    state.vector_nominal[c] =
+                        cx.motion.arc_words[c].map_or(0.0, |i| cx.number(i).0);
+                }
+            }
+            let v = Vector3::from(state.vector_nominal);
+            self.scale = v.norm();
+            if self.scale.is_nan() || self.scale <= 1e-9 {
+                return Err(cx.refuse(
+                    first,
+                    "the tool vector I, J, K is zero (expected a direction from the tip towards the spindle)".into(),
+                ));
+            }
+            let target = Pose {
+                p: tip,
+                o: v / self.scale,
+            };
+            pass.controller_ik(&target, &state.nominal, state.modal.length)
+                .ok_or_else(|| cx.refuse(first, "the nominal machine cannot reach this tip and tool vector from the previous axis positions (no inverse-kinematics solution near them)".into()))?
+        } else {
+            let sol = pass.kin.tcp_axes_with_rotaries(
+                &tip,
+                &guess[..n],
+                state.modal.length,
+                &pass.options.solve,
+            );
+            if sol.position_residual > 1e-6 {
+                return Err(cx.refuse(
+                    first,
+                    format!(
+                        "the programmed tip cannot be reached with these rotary positions (off by {:.4} mm)",
+                        sol.position_residual
+                    ),
+                ));
+            }
+            sol.q
+        };
+        if let Some(clockwise) = self.arc {
+            self.tip_arc = Some(self.tip_arc(pass, cx, state, clockwise, tip)?);
+        }
+        // Under G43.5 at a singular pose the rotary axes keep their programmed values: the
+        // vector is then written as programmed, and the controller holds the free axis.
+        if vector {
+            let (pose, jac) =
+                pass.kin
+                    .pose_and_jacobian(Model::Nominal, &nominal[..n], state.modal.length);
+            let singular =
+                pass.kin
+                    .singular_axes(&pose, &jac.axis_dir, pass.options.solve.singular_angle);
+            if singular != 0 {
+                // The solve holds the singular axes itself (and says so).
+                self.hold = pass.rotary_mask() & !singular;
+            }
+        }
+        state.nominal = nominal;
+        state.programmed |= (1u32 << n) - 1;
+        Ok(Some(nominal))
+    }
+
+    fn hold(&self, _pass: &Pass<'_>) -> u32 {
+        self.hold
+    }
+
+    fn path(
+        &mut self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        end: &Solution,
+        hold: u32,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<(), Diagnostic> {
+        let Some(start) = self.start else {
+            return Ok(());
+        };
+        let last = self.written_end(pass, 1.0, end, state);
+        self.pieces.clear();
+        if let Some(arc) = self.tip_arc {
+            // Chords of the tip's arc, each end compensated.
+            let radius = arc.r0.max(arc.r1);
+            let step = 2.0 * (1.0 - (CHORD / radius).min(1.0)).acos();
+            let count = ((arc.sweep.abs() / step).ceil() as usize).max(1);
+            if count > MAX_ARC_PIECES {
+                return Err(cx.refuse(
+                    cx.first_col(),
+                    format!(
+                        "this arc cannot be compensated: it would take {count} straight pieces"
+                    ),
+                ));
+            }
+            for k in 1..count {
+                let piece = self.point(pass, cx, k as f64 / count as f64, hold, state)?;
+                self.pieces.push(piece);
+            }
+        } else if let Some(tolerance) = &pass.options.path
+            && !state.modal.rapid
+        {
+            let mut pieces = Vec::new();
+            self.split(
+                pass,
+                cx,
+                tolerance,
+                start,
+                last,
+                hold,
+                0,
+                state,
+                &mut pieces,
+            )?;
+            pieces.pop();
+            self.pieces = pieces;
+        }
+        self.end = Some(last);
+        if !self.pieces.is_empty() {
+            self.insert(pass, cx, state, out);
+        }
+        Ok(())
+    }
+
+    fn write(
+        &mut self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        end: &Solution,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<(), Diagnostic> {
+        let last = match self.end {
+            Some(e) => e,
+            None => self.written_end(pass, 1.0, end, state),
+        };
+        let n = pass.kin.len();
+        let inch = state.modal.inch;
+        let to_units = |x: f64| if inch { x / INCH } else { x };
+        let (programmed, _) = pass
+            .kin
+            .pose(Model::Nominal, end.values(), state.modal.length);
+        let vector_mode = state.modal.tcp_vector;
+        let mut editor = cx.editor(out.edits);
+        let mut added: Vec<(usize, String)> = Vec::new();
+        for &v in &pass.write_order {
+            let tip_c = self.tips.iter().position(|&t| t == v);
+            if vector_mode && tip_c.is_none() {
+                continue;
+            }
+            let unit = Unit::inch(inch && tip_c.is_some());
+            let (value, before) = match tip_c {
+                Some(c) => (to_units(programmed.p[c]), to_units(state.tip_written[c])),
+                None => (end.q[v], state.emitted[v]),
+            };
+            let written = match cx.motion.axis_words[v] {
+                Some(i) => {
+                    let d = cx.number(i).1.max(pass.res_decimals(v, unit));
+                    state.decimals[v] = d;
+                    if editor.set_fixed(i, value, d) {
+                        out.summary.words_changed += 1;
+                        round(value, d)
+                    } else {
+                        round(cx.number(i).0, d)
+                    }
+                }
+                None => {
+                    let d = state.decimals[v].max(pass.res_decimals(v, unit));
+                    if same_text(before, value, d) {
+                        continue;
+                    }
+                    let mut text = String::new();
+                    let x = write_fixed_value(value, d, &mut text);
+                    added.push((v, text));
+                    x
+                }
+            };
+            match tip_c {
+                Some(c) => state.tip_written[c] = if inch { written * INCH } else { written },
+                None => {
+                    state.emitted[v] = written;
+                    state.written[v] = Position::Decimal {
+                        value: written,
+                        decimals: state.decimals[v],
+                        unit: Unit::MM,
+                    };
+                }
+            }
+        }
+        for (v, text) in &added {
+            pass.insert_axis_word(cx, out, *v, text);
+            out.summary.words_added += 1;
+        }
+        if vector_mode {
+            self.write_vector(pass, cx, &last, state, out);
+        }
+        if self.tip_arc.is_some() {
+            // The arc's own line is the last straight piece: G1, no centre words.
+            let mut editor = cx.editor(out.edits);
+            if let Some(i) = cx.motion.arc_code {
+                let digits = editor
+                    .word(i)
+                    .map_or(&b""[..], |w| &cx.line.content[w.value_span.clone()]);
+                editor.replace_number(
+                    i,
+                    if digits.first() == Some(&b'0') {
+                        "01"
+                    } else {
+                        "1"
+                    },
+                );
+            } else if self.pieces.is_empty() {
+                let style = editor.style();
+                if let Some(first) = cx
+                    .motion
+                    .axis_words
+                    .iter()
+                    .flatten()
+                    .copied()
+                    .min_by_key(|&i| cx.col(i))
+                {
+                    editor.insert_before_word(first, &(style.word(b'G', "1") + style.separator));
+                }
+            }
+            for i in cx.motion.arc_words.iter().flatten() {
+                editor.remove_word(*i);
+            }
+            out.summary.note_arc(cx.line.number, self.pieces.len());
+        }
+        // What the controller commands for what is written.
+        let ctrl = self
+            .controller_at(pass, state, &Vector3::from(state.tip_written), end)
+            .unwrap_or(last.ctrl);
+        for (v, &x) in ctrl.iter().enumerate().take(n) {
+            state.emitted[v] = x;
+            state.written[v] = Position::Decimal {
+                value: x,
+                decimals: state.decimals[v],
+                unit: Unit::MM,
+            };
+        }
+        Ok(())
+    }
+}
+
+/// `x` as written with `d` decimals.
+fn round(x: f64, d: u8) -> f64 {
+    let mut text = String::new();
+    write_fixed_value(x, d, &mut text)
+}
+
+impl TcpMode {
+    /// The tip's arc of the block, in the modal plane, from the programmed start tip to
+    /// `end`.
+    fn tip_arc(
+        &self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        state: &State,
+        clockwise: bool,
+        end: Vector3<f64>,
+    ) -> Result<TipArc, Diagnostic> {
+        let col = cx
+            .motion
+            .arc_code
+            .map_or_else(|| cx.first_col(), |i| cx.col(i));
+        let refuse = |why: String| cx.refuse(col, format!("this arc cannot be compensated: {why}"));
+        let (a, b, centre_words) = match state.modal.plane {
+            0 => (0, 1, [0, 1]),
+            1 => (2, 0, [2, 0]),
+            2 => (1, 2, [1, 2]),
+            _ => return Err(refuse("arcs in a U/V/W plane are not supported".into())),
+        };
+        if state.modal.inverse_time && cx.word(b'F').is_none() {
+            return Err(refuse(
+                "in inverse-time feed (G93) an arc needs its own F word".into(),
+            ));
+        }
+        if cx.motion.arc_words.iter().any(Option::is_some) && cx.word(b'P').is_some() {
+            return Err(refuse("a P word (several turns) is not supported".into()));
+        }
+        let _ = pass;
+        let mm = |x: f64| if state.modal.inch { x * INCH } else { x };
+        let (a0, b0) = (self.tip0[a], self.tip0[b]);
+        let (a1, b1) = (end[a], end[b]);
+        let centre = if let Some(ri) = cx.motion.arc_words[3] {
+            let r = mm(cx.number(ri).0);
+            let (dx, dy) = (a1 - a0, b1 - b0);
+            let d = (dx * dx + dy * dy).sqrt();
+            if d == 0.0 || d > 2.0 * r.abs() + 1e-9 {
+                return Err(refuse(
+                    "with R the end point must differ from the start and lie within 2R of it"
+                        .into(),
+                ));
+            }
+            let h = (r * r - d * d / 4.0).max(0.0).sqrt();
+            let left = clockwise == (r < 0.0);
+            let (mx, my) = ((a0 + a1) / 2.0, (b0 + b1) / 2.0);
+            let (ux, uy) = (-dy / d, dx / d);
+            if left {
+                (mx + ux * h, my + uy * h)
+            } else {
+                (mx - ux * h, my - uy * h)
+            }
+        } else {
+            let word = |c: usize| cx.motion.arc_words[c];
+            let (ci, cj) = (word(centre_words[0]), word(centre_words[1]));
+            if ci.is_none() && cj.is_none() {
+                return Err(refuse(
+                    "it gives neither a centre (I/J/K for its plane) nor a radius (R)".into(),
+                ));
+            }
+            let off_a = ci.map_or(0.0, |i| mm(cx.number(i).0));
+            let off_b = cj.map_or(0.0, |i| mm(cx.number(i).0));
+            if state.modal.arc_absolute {
+                (off_a, off_b)
+            } else {
+                (a0 + off_a, b0 + off_b)
+            }
+        };
+        let r0 = ((a0 - centre.0).powi(2) + (b0 - centre.1).powi(2)).sqrt();
+        let r1 = ((a1 - centre.0).powi(2) + (b1 - centre.1).powi(2)).sqrt();
+        if r0 < 1e-9 || (r0 - r1).abs() > 0.002_f64.max(1e-6 * r0) {
+            return Err(refuse(format!(
+                "its end is not on its circle (radius {r0:.4} at the start, {r1:.4} at the end)"
+            )));
+        }
+        let th0 = (b0 - centre.1).atan2(a0 - centre.0);
+        let th1 = (b1 - centre.1).atan2(a1 - centre.0);
+        let sweep = if clockwise {
+            let s = -(th0 - th1).rem_euclid(TAU);
+            if s == 0.0 { -TAU } else { s }
+        } else {
+            let s = (th1 - th0).rem_euclid(TAU);
+            if s == 0.0 { TAU } else { s }
+        };
+        Ok(TipArc {
+            a,
+            b,
+            centre,
+            r0,
+            r1,
+            th0,
+            sweep,
+        })
+    }
+
+    /// The programmed tip and nominal axis values at parameter `s` of the move: the tip on
+    /// its line or arc, the rotary axes in proportion (the linear axes at `s` in proportion
+    /// too: a guess for the inverse kinematics).
+    fn programmed_at(
+        &self,
+        pass: &Pass<'_>,
+        s: f64,
+        state: &State,
+    ) -> (Vector3<f64>, [f64; MAX_AXES]) {
+        let n = pass.kin.len();
+        let tip1 = Vector3::from(state.tip_nominal);
+        let mut tip = self.tip0 + (tip1 - self.tip0) * s;
+        if let Some(arc) = &self.tip_arc {
+            let th = arc.th0 + arc.sweep * s;
+            let r = arc.r0 + (arc.r1 - arc.r0) * s;
+            tip[arc.a] = arc.centre.0 + r * th.cos();
+            tip[arc.b] = arc.centre.1 + r * th.sin();
+        }
+        let mut q = [0.0; MAX_AXES];
+        for (v, x) in q.iter_mut().enumerate().take(n) {
+            *x = self.q0[v] + (state.nominal[v] - self.q0[v]) * s;
+        }
+        (tip, q)
+    }
+
+    /// The nominal pose at parameter `s`: the programmed tip, the direction of the rotary
+    /// axes there (the nominal linear axes only translate).
+    fn target_at(&self, pass: &Pass<'_>, s: f64, state: &State) -> Pose {
+        let n = pass.kin.len();
+        let (tip, q) = self.programmed_at(pass, s, state);
+        let (pose, _) = pass.kin.pose(Model::Nominal, &q[..n], state.modal.length);
+        Pose { p: tip, o: pose.o }
+    }
+
+    /// The block's compensated point at parameter `s` (solved with the guards), as it will
+    /// be written, after `prev`.
+    fn point(
+        &self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        s: f64,
+        hold: u32,
+        state: &mut State,
+    ) -> Result<End, Diagnostic> {
+        let n = pass.kin.len();
+        let (tip, guess) = self.programmed_at(pass, s, state);
+        let nominal = pass.kin.tcp_axes_with_rotaries(
+            &tip,
+            &guess[..n],
+            state.modal.length,
+            &pass.options.solve,
+        );
+        let (sol, _) = pass.solve(&nominal.q, hold, cx, state)?;
+        Ok(self.written_end(pass, s, &sol, state))
+    }
+
+    /// The block's point at parameter `s` for the solution `sol`: the tip and rotary values
+    /// or vector as written, and the axis values the controller commands for them.
+    fn written_end(&self, pass: &Pass<'_>, s: f64, sol: &Solution, state: &State) -> End {
+        let n = pass.kin.len();
+        let inch = state.modal.inch;
+        let (programmed, _) = pass
+            .kin
+            .pose(Model::Nominal, sol.values(), state.modal.length);
+        let mut tip = Vector3::zeros();
+        for (c, &v) in self.tips.iter().enumerate() {
+            let d = state.decimals[v].max(pass.res_decimals(v, Unit::inch(inch)));
+            tip[c] = if inch {
+                round(programmed.p[c] / INCH, d) * INCH
+            } else {
+                round(programmed.p[c], d)
+            };
+        }
+        let mut guess = sol.q;
+        let mut vector = state.vector_written;
+        if state.modal.tcp_vector {
+            let decimals = self.vector_decimals(pass, &programmed, sol, state);
+            for (c, x) in vector.iter_mut().enumerate() {
+                *x = round(programmed.o[c] * self.scale, decimals);
+            }
+        } else {
+            for (v, x) in guess.iter_mut().enumerate().take(n) {
+                if pass.kin.kind(v) == AxisKind::Rotary {
+                    *x = round(*x, state.decimals[v].max(pass.decimals.1));
+                }
+            }
+        }
+        let ctrl = self
+            .controller(pass, state, &tip, &vector, &guess)
+            .unwrap_or(sol.q);
+        End {
+            s,
+            ctrl,
+            tip,
+            vector,
+            solution: Some(*sol),
+        }
+    }
+
+    /// The axis values the controller commands for the written `tip` and rotary values
+    /// (G43.4: `rotary`'s rotary entries) or `vector` (G43.5, from where the axes stand).
+    fn controller(
+        &self,
+        pass: &Pass<'_>,
+        state: &State,
+        tip: &Vector3<f64>,
+        vector: &[f64; 3],
+        rotary: &[f64; MAX_AXES],
+    ) -> Option<[f64; MAX_AXES]> {
+        let n = pass.kin.len();
+        if state.modal.tcp_vector {
+            let o = Vector3::from(*vector);
+            let norm = o.norm();
+            if norm.is_nan() || norm <= 1e-9 {
+                return None;
+            }
+            let target = Pose {
+                p: *tip,
+                o: o / norm,
+            };
+            pass.controller_ik(&target, rotary, state.modal.length)
+        } else {
+            let sol = pass.kin.tcp_axes_with_rotaries(
+                tip,
+                &rotary[..n],
+                state.modal.length,
+                &pass.options.solve,
+            );
+            (sol.position_residual <= 1e-6).then_some(sol.q)
+        }
+    }
+
+    /// What the controller commands for the words written in the block itself: under
+    /// G43.4 the written rotary values (already in `State::emitted`), under G43.5 the
+    /// solution nearest where the axes stand (`State::emitted`, the previous block's).
+    fn controller_at(
+        &self,
+        pass: &Pass<'_>,
+        state: &State,
+        tip: &Vector3<f64>,
+        end: &Solution,
+    ) -> Option<[f64; MAX_AXES]> {
+        let mut from = end.q;
+        for (v, x) in from.iter_mut().enumerate().take(pass.kin.len()) {
+            if pass.kin.kind(v) == AxisKind::Rotary || state.modal.tcp_vector {
+                *x = state.emitted[v];
+            }
+        }
+        self.controller(pass, state, tip, &state.vector_written, &from)
+    }
+
+    /// Decimals for the tool vector of `sol` (whose nominal pose is `programmed`): the
+    /// fewest from the machine's rotary resolution up that make the controller's solve of
+    /// the written vector land the rotary axes within half the resolution of `sol`'s.
+    fn vector_decimals(
+        &self,
+        pass: &Pass<'_>,
+        programmed: &Pose,
+        sol: &Solution,
+        state: &State,
+    ) -> u8 {
+        let n = pass.kin.len();
+        let base = decimals_for(pass.machine.resolution.rotary.to_radians());
+        let half = pass.machine.resolution.rotary / 2.0;
+        for d in base..=MAX_VECTOR_DECIMALS {
+            let mut o = Vector3::zeros();
+            for c in 0..3 {
+                o[c] = round(programmed.o[c] * self.scale, d);
+            }
+            let Some(norm) = Some(o.norm()).filter(|x| *x > 1e-9) else {
+                continue;
+            };
+            let target = Pose {
+                p: programmed.p,
+                o: o / norm,
+            };
+            if let Some(q) = pass.controller_ik(&target, &sol.q, state.modal.length)
+                && (0..n).all(|v| {
+                    pass.kin.kind(v) != AxisKind::Rotary || (q[v] - sol.q[v]).abs() <= half
+                })
+            {
+                return d;
+            }
+        }
+        MAX_VECTOR_DECIMALS
+    }
+
+    /// The words of the tool vector (G43.5): at the programmed vector's length, so that
+    /// unchanged components keep their text. A block that gives any of I, J, K gives the
+    /// vector (an omitted component is 0); a block that gives none keeps the previous one.
+    fn write_vector(
+        &self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        last: &End,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) {
+        let vector_words = &cx.motion.arc_words[..3];
+        let given = vector_words.iter().any(Option::is_some);
+        let decimals = |c: usize| {
+            let own = vector_words[c].map_or(0, |i| cx.number(i).1);
+            let needed = (0..=MAX_VECTOR_DECIMALS)
+                .find(|&d| {
+                    same_text(
+                        last.vector[c],
+                        round(last.vector[c], d),
+                        MAX_VECTOR_DECIMALS,
+                    )
+                })
+                .unwrap_or(MAX_VECTOR_DECIMALS);
+            own.max(needed)
+                .max(decimals_for(pass.machine.resolution.rotary.to_radians()))
+        };
+        let changed = (0..3).any(|c| {
+            let old = vector_words[c].map_or(state.vector_written[c], |i| cx.number(i).0);
+            !same_text(old, last.vector[c], decimals(c))
+        });
+        let mut editor = cx.editor(out.edits);
+        let mut missing: Vec<(u8, String)> = Vec::new();
+        for (c, word) in vector_words.iter().enumerate() {
+            let d = decimals(c);
+            let value = last.vector[c];
+            match *word {
+                Some(i) => {
+                    if editor.set_fixed(i, value, d) {
+                        out.summary.words_changed += 1;
+                    }
+                }
+                None if given && same_text(0.0, value, d) => {}
+                None if !given && !changed => {}
+                None => {
+                    let mut text = String::new();
+                    write_fixed(value, d, &mut text);
+                    missing.push((b"IJK"[c], text));
+                }
+            }
+        }
+        if !given && !changed {
+            return;
+        }
+        state.vector_written = last.vector;
+        if !missing.is_empty() {
+            let end = cx
+                .motion
+                .axis_words
+                .iter()
+                .chain(&cx.motion.arc_words[..3])
+                .flatten()
+                .map(|&i| cx.tokens[i].span.end)
+                .max()
+                .unwrap_or(0);
+            let words: Vec<(u8, &str)> = missing.iter().map(|(l, t)| (*l, t.as_str())).collect();
+            editor.insert_words_at(end, &words);
+            out.summary.words_added += missing.len();
+        }
+    }
+
+    /// Split the part of the move from `a` to `b` where the real machine, following the
+    /// controller's interpolation of the written words, strays from the nominal path: the
+    /// points after `a`, in order, `b` last.
+    #[allow(clippy::too_many_arguments)]
+    fn split(
+        &self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        tol: &PathTolerance,
+        a: End,
+        b: End,
+        hold: u32,
+        depth: u32,
+        state: &mut State,
+        out: &mut Vec<End>,
+    ) -> Result<(), Diagnostic> {
+        let budget = MOVE_PIECES << tol.max_depth;
+        if depth >= tol.max_depth || out.len() >= budget || self.within(pass, tol, &a, &b, state) {
+            out.push(b);
+            return Ok(());
+        }
+        let mid = self.point(pass, cx, 0.5 * (a.s + b.s), hold, state)?;
+        self.split(pass, cx, tol, a, mid, hold, depth + 1, state, out)?;
+        self.split(pass, cx, tol, mid, b, hold, depth + 1, state, out)
+    }
+
+    /// Whether the controller's move from `a` to `b` stays within `tol` of the nominal path
+    /// at its quarter points.
+    fn within(
+        &self,
+        pass: &Pass<'_>,
+        tol: &PathTolerance,
+        a: &End,
+        b: &End,
+        state: &State,
+    ) -> bool {
+        let n = pass.kin.len();
+        let length = state.modal.length;
+        for u in [0.25, 0.5, 0.75] {
+            let s = a.s + (b.s - a.s) * u;
+            let target = self.target_at(pass, s, state);
+            // The controller: the tip on a straight line, the rotary axes in proportion.
+            let tip = a.tip + (b.tip - a.tip) * u;
+            let mut q = [0.0; MAX_AXES];
+            for (v, x) in q.iter_mut().enumerate().take(n) {
+                *x = a.ctrl[v] + (b.ctrl[v] - a.ctrl[v]) * u;
+            }
+            let ctrl = pass
+                .kin
+                .tcp_axes_with_rotaries(&tip, &q[..n], length, &pass.options.solve);
+            let (actual, _) = pass.kin.pose(Model::Actual, ctrl.values(), length);
+            if (actual.p - target.p).norm() > tol.position {
+                return false;
+            }
+            let (_, jac) = pass.kin.pose_and_jacobian(Model::Nominal, &q[..n], length);
+            let singular =
+                pass.kin
+                    .singular_axes(&target, &jac.axis_dir, pass.options.solve.singular_angle);
+            if singular == 0 && angle_between(&actual.o, &target.o) > tol.direction {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Insert the pieces before the line, as TCP blocks in the block's style, and follow
+    /// what the controller is told at each.
+    fn insert(&self, pass: &Pass<'_>, cx: &Cx<'_, '_>, state: &mut State, out: &mut Out<'_>) {
+        let inch = state.modal.inch;
+        let mut editor = cx.editor(out.edits);
+        let style = editor.style();
+        let numbers = editor.inserted_numbers(state.last_n, self.pieces.len());
+        let ending = Editor::ending(cx.line.ending);
+        let f_word = cx.word(b'F');
+        let mut text = String::new();
+        for (k, piece) in self.pieces.iter().enumerate() {
+            let mut words: Vec<String> = Vec::new();
+            if let Some(number) = &numbers[k] {
+                words.push(style.word(b'N', number));
+            }
+            if k == 0 {
+                // The block's own modal words, so the pieces run as the block would.
+                for (ti, t) in cx.tokens.iter().enumerate() {
+                    if let crate::nc::TokenKind::Word(w) = &t.kind
+                        && matches!(w.letter, b'G' | b'H' | b'D' | b'S')
+                        && Some(ti) != cx.motion.arc_code
+                    {
+                        words.push(String::from_utf8_lossy(editor.text(ti)).into_owned());
+                    }
+                }
+                if self.tip_arc.is_some() {
+                    words.push(style.word(b'G', "1"));
+                }
+            }
+            for &v in &pass.write_order {
+                let tip_c = self.tips.iter().position(|&t| t == v);
+                let (value, before, d) = match tip_c {
+                    Some(c) => {
+                        let d = state.decimals[v].max(pass.res_decimals(v, Unit::inch(inch)));
+                        let f = if inch { INCH } else { 1.0 };
+                        (piece.tip[c] / f, state.tip_written[c] / f, d)
+                    }
+                    None if state.modal.tcp_vector => continue,
+                    None => (
+                        piece.ctrl[v],
+                        state.emitted[v],
+                        state.decimals[v].max(pass.decimals.1),
+                    ),
+                };
+                if same_text(before, value, d) {
+                    continue;
+                }
+                let mut number = String::new();
+                write_fixed(value, d, &mut number);
+                words.push(style.word(pass.letter(v), &number));
+            }
+            if state.modal.tcp_vector
+                && (0..3).any(|c| {
+                    !same_text(
+                        state.vector_written[c],
+                        piece.vector[c],
+                        MAX_VECTOR_DECIMALS,
+                    )
+                })
+            {
+                for c in 0..3 {
+                    let mut number = String::new();
+                    let x = piece.vector[c];
+                    let d = (0..=MAX_VECTOR_DECIMALS)
+                        .find(|&d| same_text(x, round(x, d), MAX_VECTOR_DECIMALS))
+                        .unwrap_or(MAX_VECTOR_DECIMALS)
+                        .max(decimals_for(pass.machine.resolution.rotary.to_radians()));
+                    write_fixed(x, d, &mut number);
+                    words.push(style.word(b"IJK"[c], &number));
+                }
+                state.vector_written = piece.vector;
+            }
+            if k == 0
+                && let Some(f) = f_word
+            {
+                words.push(String::from_utf8_lossy(editor.text(f)).into_owned());
+            }
+            for c in 0..3 {
+                state.tip_written[c] = piece.tip[c];
+            }
+            state.emitted = piece.ctrl;
+            if let Some(sol) = &piece.solution {
+                pass.record(cx.line.number, sol, state, out.summary);
+            }
+            let _ = write!(text, "{}{}", words.join(style.separator), ending);
+        }
+        if self.tip_arc.is_none() {
+            out.summary.note_split(cx.line.number, self.pieces.len());
+        }
+        editor.insert_blocks(text);
+    }
+}
 
 impl Pass<'_> {
     /// The variables driven by the X, Y and Z words, which TCP programs use for the tip.
@@ -27,6 +981,64 @@ impl Pass<'_> {
             vars[c] = v;
         }
         Some(vars)
+    }
+
+    /// The rotary variables.
+    pub(super) fn rotary_mask(&self) -> u32 {
+        (0..self.kin.len())
+            .filter(|&v| self.kin.kind(v) == AxisKind::Rotary)
+            .fold(0, |m, v| m | 1 << v)
+    }
+
+    /// The controller's nominal inverse kinematics of a tip and tool direction, from the
+    /// axis values `from`: of the solutions, the one whose rotary axes move least; a
+    /// rotary axis whose line lies along the tool direction keeps its value (Fanuc: "the
+    /// master axis does not move from the current angle").
+    pub(super) fn controller_ik(
+        &self,
+        target: &Pose,
+        from: &[f64; MAX_AXES],
+        length: f64,
+    ) -> Option<[f64; MAX_AXES]> {
+        let n = self.kin.len();
+        // A block moves the axes by degrees, not microns: more iterations than a
+        // correction; singular only where the direction is along the axis to 0.1 µrad.
+        let far = SolveOptions {
+            max_iterations: 100,
+            singular_angle: 1e-7,
+            ..self.options.solve
+        };
+        let rotary: Vec<usize> = (0..n)
+            .filter(|&v| self.kin.kind(v) == AxisKind::Rotary)
+            .collect();
+        let moved =
+            |q: &[f64; MAX_AXES]| rotary.iter().map(|&v| (q[v] - from[v]).abs()).sum::<f64>();
+        let mut best: Option<[f64; MAX_AXES]> = None;
+        // Starts: where the axes stand, and each rotary axis a quarter and half turn away
+        // (Newton from one start finds the branch nearest it, if any).
+        let mut starts = vec![*from];
+        for &v in &rotary {
+            for turn in [90.0, -90.0, 180.0] {
+                let mut s = *from;
+                s[v] += turn;
+                starts.push(s);
+            }
+        }
+        for start in &starts {
+            let Some(sol) = self
+                .kin
+                .inverse(Model::Nominal, target, &start[..n], length, &far)
+            else {
+                continue;
+            };
+            if best.is_none_or(|b| moved(&sol.q) < moved(&b) - 1e-9) {
+                best = Some(sol.q);
+            }
+            if start == from && moved(&sol.q) < 1e-6 {
+                break;
+            }
+        }
+        best
     }
 
     /// G43.4 or G43.5 switches on: from now on X, Y, Z words are the tip (and under G43.5,
@@ -84,174 +1096,6 @@ impl Pass<'_> {
         state.tip_written = written.p.into();
         state.vector_nominal = nominal.o.into();
         state.vector_written = written.o.into();
-        state.modal.tcp = true;
-        Ok(())
-    }
-
-    /// One G43.4 block that moves.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn tcp_block(
-        &self,
-        line: &nc::Line<'_>,
-        tokens: &[Token],
-        axis_words: &[Option<usize>; MAX_AXES],
-        optional: bool,
-        state: &mut State,
-        edits: &mut Vec<Edit>,
-        summary: &mut Summary,
-        at: &dyn Fn(usize, String) -> Diagnostic,
-    ) -> Result<(), Diagnostic> {
-        let n = self.kin.len();
-        let first = axis_words
-            .iter()
-            .flatten()
-            .map(|&i| tokens[i].span.start)
-            .min()
-            .unwrap_or(0);
-        if state.modal.incremental {
-            return Err(at(first, "incremental moves (G91) under G43.4 cannot be compensated (program the TCP part in G90)".into()));
-        }
-        if optional {
-            return Err(at(first, "an optional block (/) under G43.4 cannot be compensated safely (take it out of the TCP part)".into()));
-        }
-        let tips = self.tip_vars().expect("checked when G43.4 was switched on");
-        let number = |i: usize| match &tokens[i].kind {
-            TokenKind::Word(w) => match w.value {
-                Value::Number { value, decimals } => (value, decimals, w.value_span.clone()),
-                _ => unreachable!("axis words are numbers"),
-            },
-            _ => unreachable!("axis words are words"),
-        };
-        // The programmed pose: tip words and rotary positions.
-        let mut guess = state.nominal;
-        for v in 0..n {
-            let Some(i) = axis_words[v] else { continue };
-            let (value, _, _) = number(i);
-            match tips.iter().position(|&t| t == v) {
-                Some(c) => {
-                    state.tip_nominal[c] = if state.modal.inch {
-                        value * INCH
-                    } else {
-                        value
-                    }
-                }
-                None => guess[v] = value,
-            }
-            state.programmed |= 1 << v;
-        }
-        let tip = nalgebra::Vector3::from(state.tip_nominal);
-        let nominal = self.kin.tcp_axes_with_rotaries(
-            &tip,
-            &guess[..n],
-            state.modal.length,
-            &self.options.solve,
-        );
-        if nominal.position_residual > 1e-6 {
-            return Err(at(
-                first,
-                format!(
-                    "the programmed tip cannot be reached with these rotary positions (off by {:.4} mm)",
-                    nominal.position_residual
-                ),
-            ));
-        }
-        state.nominal = nominal.q;
-        let sol = self.kin.compensate(
-            &state.nominal[..n],
-            state.modal.length,
-            self.hold,
-            &self.options.solve,
-        );
-        summary.motion_blocks += 1;
-        let (programmed, _) = self
-            .kin
-            .pose(Model::Nominal, sol.values(), state.modal.length);
-        // What to write for each variable, in program units.
-        for v in 0..n {
-            let tip_c = tips.iter().position(|&t| t == v);
-            let inch = state.modal.inch && tip_c.is_some();
-            let to_units = |x: f64| if inch { x / INCH } else { x };
-            let (value, written) = match tip_c {
-                Some(c) => (to_units(programmed.p[c]), to_units(state.tip_written[c])),
-                None => (sol.q[v], state.emitted[v]),
-            };
-            let mut text = String::new();
-            match axis_words[v] {
-                Some(i) => {
-                    let (old, decimals, span) = number(i);
-                    let d = decimals.max(self.res_decimals(v, Unit::inch(state.modal.inch)));
-                    state.decimals[v] = d;
-                    if !same_text(old, value, d) {
-                        write_fixed(value, d, &mut text);
-                        edits.push(Edit {
-                            at: span,
-                            text: text.clone().into(),
-                        });
-                        summary.words_changed += 1;
-                    } else {
-                        write_fixed(old, d, &mut text);
-                    }
-                }
-                None => {
-                    let d =
-                        state.decimals[v].max(self.res_decimals(v, Unit::inch(state.modal.inch)));
-                    if same_text(written, value, d) {
-                        continue;
-                    }
-                    write_fixed(value, d, &mut text);
-                    edits.push(self.insertion(line.content, tokens, axis_words, v, &text));
-                    summary.words_added += 1;
-                }
-            }
-            let x = crate::nc::to_f64(text.as_bytes());
-            match tip_c {
-                Some(c) => state.tip_written[c] = if inch { x * INCH } else { x },
-                None => {
-                    state.emitted[v] = x;
-                    state.written[v] = Position::Decimal {
-                        value: x,
-                        decimals: state.decimals[v],
-                        unit: Unit::MM,
-                    };
-                }
-            }
-        }
-        // What the controller will do with what is written, as the model predicts it.
-        let mut ctrl_guess = sol.q;
-        for (v, guess) in ctrl_guess.iter_mut().enumerate().take(n) {
-            if self.kin.kind(v) == AxisKind::Rotary {
-                *guess = state.emitted[v];
-            }
-        }
-        let ctrl = self.kin.tcp_axes_with_rotaries(
-            &nalgebra::Vector3::from(state.tip_written),
-            &ctrl_guess[..n],
-            state.modal.length,
-            &self.options.solve,
-        );
-        for (v, &ctrl_value) in ctrl.q.iter().enumerate().take(n) {
-            if self.kin.kind(v) == AxisKind::Linear {
-                state.emitted[v] = ctrl_value;
-            }
-        }
-        let (after, beyond) = self
-            .kin
-            .pose(Model::Actual, ctrl.values(), state.modal.length);
-        let (ap, ad) = after.deviation(&sol.target);
-        summary.record(
-            line.number,
-            sol.start_position_error,
-            sol.start_direction_error,
-            ap,
-            ad,
-            sol.singular != 0,
-            beyond,
-        );
-        for v in 0..n {
-            if sol.singular & (1 << v) != 0 {
-                summary.note_held(self.axis_name(v));
-            }
-        }
         Ok(())
     }
 }

@@ -1,62 +1,47 @@
 //! Writing a compensated block's axis words: positions in G90, increments in G91.
 
 use super::exact::{self, Position};
-use super::{Edit, Pass, State, Summary};
+use super::pipeline::{Cx, Out};
+use super::{Pass, State, axis_order};
 use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
-use crate::nc::number::{Rounded, same_text, write_fixed_value, write_scaled_bytes};
-use crate::nc::{self, Token, TokenKind, Value};
-
-/// The value and decimals of a token known to be a numeric word, and its value's span.
-fn number(t: &Token) -> (f64, u8, std::ops::Range<usize>) {
-    let TokenKind::Word(w) = &t.kind else {
-        unreachable!("axis words are words")
-    };
-    let Value::Number { value, decimals } = w.value else {
-        unreachable!("axis words are numbers")
-    };
-    (value, decimals, w.value_span.clone())
-}
+use crate::nc::edit::Editor;
+use crate::nc::number::{same_text, write_fixed_value, write_scaled_bytes};
 
 impl Pass<'_> {
     /// G90: write each axis's compensated position `q` (mm, degrees); a word keeps its
     /// bytes when the new value prints the same, an axis the block omits gets a word when
     /// its value changes.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn write_positions(
         &self,
-        line: &nc::Line<'_>,
-        tokens: &[Token],
-        axis_words: &[Option<usize>; MAX_AXES],
+        cx: &Cx<'_, '_>,
         q: &[f64],
         optional: bool,
         state: &mut State,
-        edits: &mut Vec<Edit>,
-        summary: &mut Summary,
-        at: &dyn Fn(usize, String) -> Diagnostic,
+        out: &mut Out<'_>,
     ) -> Result<(), Diagnostic> {
+        let axis_words = &cx.motion.axis_words;
+        let line = cx.line;
         for &v in &self.write_order {
             let unit = self.unit(v, &state.modal);
             let value = unit.of_mm(q[v]);
             match axis_words[v] {
                 Some(i) => {
-                    let (old, decimals, span) = number(&tokens[i]);
-                    let d = decimals.max(self.res_decimals(v, unit));
+                    let d = cx.number(i).1.max(self.res_decimals(v, unit));
                     state.decimals[v] = d;
-                    let rounded = Rounded::new(value, d);
-                    if rounded.prints_as(old) {
-                        state.emitted[v] = unit.to_mm(old);
-                        state.written[v] = state.nominal_exact[v];
-                    } else {
-                        let mut text = state.spare_texts.pop().unwrap_or_default();
-                        state.emitted[v] = unit.to_mm(rounded.write_bytes(&mut text));
+                    let mut editor = Editor::new(line.content, cx.tokens, out.edits)
+                        .with_spare(&mut state.spare_texts);
+                    let (written, changed) = editor.set_number(i, value, d);
+                    state.emitted[v] = unit.to_mm(written);
+                    if changed {
                         state.written[v] = Position::Decimal {
                             value,
                             decimals: d,
                             unit,
                         };
-                        edits.push(Edit { at: span, text });
-                        summary.words_changed += 1;
+                        out.summary.words_changed += 1;
+                    } else {
+                        state.written[v] = state.nominal_exact[v];
                     }
                     state.programmed |= 1 << v;
                     state.unsettled &= !(1 << v);
@@ -73,8 +58,8 @@ impl Pass<'_> {
                     if unsettled || !same_text(unit.of_mm(state.emitted[v]), value, d) {
                         if state.uncertain & (1 << v) != 0 && !optional {
                             let letter = self.letter(v) as char;
-                            return Err(at(
-                                first_column(tokens, axis_words),
+                            return Err(cx.refuse(
+                                cx.first_col(),
                                 format!(
                                     "this block needs a corrected {letter} word, but {letter} was last set by the optional block (/) at line {}: adding it would change what the program does when block delete is on (program {letter} in this block)",
                                     state.optional_line[v]
@@ -94,10 +79,11 @@ impl Pass<'_> {
                             decimals: d,
                             unit,
                         };
-                        edits.push(self.insertion(line.content, tokens, axis_words, v, &text));
-                        summary.words_added += 1;
+                        self.insert_axis_word(cx, out, v, &text);
+                        out.summary.words_added += 1;
                         if state.programmed & (1 << v) == 0 {
-                            summary.note_assumed_home(self.axis_name(v), line.number);
+                            out.summary
+                                .note_assumed_home(self.axis_name(v), line.number);
                         }
                     }
                 }
@@ -111,19 +97,16 @@ impl Pass<'_> {
     /// positions never drift from the rounded compensated ones. A word keeps its bytes
     /// when its increment prints the same; an axis the block omits (increment 0) gets a
     /// word when its compensated increment is not 0. `units`: the block's words, exactly.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn write_increments(
         &self,
-        line: &nc::Line<'_>,
-        tokens: &[Token],
-        axis_words: &[Option<usize>; MAX_AXES],
+        cx: &Cx<'_, '_>,
         units: &[i128; MAX_AXES],
         q: &[f64],
         state: &mut State,
-        edits: &mut Vec<Edit>,
-        summary: &mut Summary,
-        at: &dyn Fn(usize, String) -> Diagnostic,
+        out: &mut Out<'_>,
     ) -> Result<(), Diagnostic> {
+        let axis_words = &cx.motion.axis_words;
+        let line = cx.line;
         for &v in &self.write_order {
             let bit = 1u32 << v;
             let unit = self.unit(v, &state.modal);
@@ -139,19 +122,16 @@ impl Pass<'_> {
                 None
             };
             let word = axis_words[v];
-            let col = word.map_or_else(
-                || first_column(tokens, axis_words),
-                |i| tokens[i].span.start,
-            );
+            let col = word.map_or_else(|| cx.first_col(), |i| cx.col(i));
             let d = match word {
-                Some(i) => number(&tokens[i]).1.max(self.res_decimals(v, unit)),
+                Some(i) => cx.number(i).1.max(self.res_decimals(v, unit)),
                 None => state.decimals[v]
                     .max(self.res_decimals(v, unit))
                     .min(exact::MAX_DECIMALS),
             };
             let (k, e) =
                 exact::increment(state.written[v].units(), value, d, unit).ok_or_else(|| {
-                    at(
+                    cx.refuse(
                         col,
                         format!(
                             "the increment of axis {} to {value} cannot be written exactly",
@@ -163,7 +143,7 @@ impl Pass<'_> {
             if let Some(at_line) = optional_line
                 && (word.is_some() || k != 0)
             {
-                return Err(at(
+                return Err(cx.refuse(
                     col,
                     format!(
                         "this incremental (G91) block {} {letter}, but {letter} was last set by the optional block (/) at line {at_line}: where it starts from depends on the block delete switch (program {letter} in G90 after the optional block)",
@@ -182,20 +162,18 @@ impl Pass<'_> {
                     if increment != units[v] {
                         let mut text = state.spare_texts.pop().unwrap_or_default();
                         write_scaled_bytes(k, e, &mut text);
-                        edits.push(Edit {
-                            at: number(&tokens[i]).2,
-                            text,
-                        });
-                        summary.words_changed += 1;
+                        cx.editor(out.edits).replace_number(i, text);
+                        out.summary.words_changed += 1;
                     }
                 }
                 None if k != 0 => {
                     let mut text = String::new();
                     exact::write_digits(k, e, &mut text);
-                    edits.push(self.insertion(line.content, tokens, axis_words, v, &text));
-                    summary.words_added += 1;
+                    self.insert_axis_word(cx, out, v, &text);
+                    out.summary.words_added += 1;
                     if state.programmed & bit == 0 {
-                        summary.note_assumed_home(self.axis_name(v), line.number);
+                        out.summary
+                            .note_assumed_home(self.axis_name(v), line.number);
                     }
                 }
                 None => {}
@@ -207,12 +185,38 @@ impl Pass<'_> {
     }
 }
 
-/// The column of a block's first axis word.
-fn first_column(tokens: &[Token], axis_words: &[Option<usize>; MAX_AXES]) -> usize {
-    axis_words
-        .iter()
-        .flatten()
-        .map(|&i| tokens[i].span.start)
-        .min()
-        .unwrap_or(0)
+impl Pass<'_> {
+    /// Add variable `v`'s word with `number` to a block that lacks it: in the usual order of
+    /// axis words among the block's own, in the style of its neighbour.
+    pub(super) fn insert_axis_word(
+        &self,
+        cx: &Cx<'_, '_>,
+        out: &mut Out<'_>,
+        v: usize,
+        number: &str,
+    ) {
+        let order = |var: usize| axis_order(self.letter(var));
+        let mine = order(v);
+        let present = || {
+            cx.motion
+                .axis_words
+                .iter()
+                .enumerate()
+                .filter_map(|(var, t)| t.map(|i| (var, i)))
+        };
+        let after = present()
+            .filter(|&(var, _)| order(var) < mine)
+            .max_by_key(|&(var, _)| order(var));
+        let before = present()
+            .filter(|&(var, _)| order(var) > mine)
+            .min_by_key(|&(var, _)| order(var));
+        // A block with axis words always has a neighbour.
+        let (neighbour, is_after) = match (after, before) {
+            (Some((_, i)), _) => (i, true),
+            (None, Some((_, i))) => (i, false),
+            (None, None) => (0, false),
+        };
+        cx.editor(out.edits)
+            .insert_word_by(neighbour, is_after, self.letter(v), number);
+    }
 }

@@ -5,6 +5,7 @@
 //! replace a single number and leave everything else exactly as it was (the toml_edit
 //! idea: a value keeps its own text).
 
+pub mod edit;
 pub mod number;
 mod parse;
 

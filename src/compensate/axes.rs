@@ -1,0 +1,219 @@
+//! Moves in machine axes (G0/G1; on a lathe also the turning moves, whose pass turns): the
+//! words are the axis values, so the controller's transformation is the identity.
+//!
+//! Target: the block's axis words, absolute or incremental (G91 exactly, `exact`).
+//! Path: a G1 from a known start is split where its compensated path strays ([`super::split`]).
+//! Write: the axis words ([`super::writing`]).
+
+use super::exact::{self, Position};
+use super::pipeline::{Cx, Mode, Out};
+use super::{Pass, State, TRAVEL_LIMIT};
+use crate::diag::Diagnostic;
+use crate::kinematics::{MAX_AXES, Solution};
+use crate::nc::{TokenKind, Value};
+
+/// A G0/G1 block in machine axes.
+pub(super) struct AxesMode {
+    /// The nominal axis values before the block.
+    previous: [f64; MAX_AXES],
+    /// Variables whose start was known.
+    start_known: u32,
+    /// The G91 words' increments, exactly.
+    units: [i128; MAX_AXES],
+}
+
+impl Default for AxesMode {
+    fn default() -> Self {
+        AxesMode {
+            previous: [0.0; MAX_AXES],
+            start_known: 0,
+            units: [0; MAX_AXES],
+        }
+    }
+}
+
+impl Mode for AxesMode {
+    fn target(
+        &mut self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<Option<[f64; MAX_AXES]>, Diagnostic> {
+        let n = pass.kin.len();
+        let optional = cx.motion.optional;
+        if optional && state.modal.incremental {
+            return Err(cx.refuse(
+                cx.first_col(),
+                "an optional block (/) in incremental mode (G91) cannot be compensated: whether it runs shifts every later incremental move, and no correction is right for both settings of block delete (program the block in G90)".into(),
+            ));
+        }
+        self.previous = state.nominal;
+        self.start_known = state.programmed & !state.unknown;
+        pass.advance_nominal(cx, state, out, &mut self.units)?;
+        if state.unknown & !pass.spindle == 0 {
+            return Ok(Some(state.nominal));
+        }
+        // The pose cannot be evaluated: the block is written as it is, and what the
+        // machine is told is what the program says.
+        for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
+            let bit = 1u32 << v;
+            let Some(i) = *word else { continue };
+            if state.unknown & bit != 0 {
+                continue;
+            }
+            let decimals = cx.number(i).1;
+            state.decimals[v] = decimals.max(pass.res_decimals(v, pass.unit(v, &state.modal)));
+            state.programmed |= bit;
+            if state.modal.incremental {
+                // The optional-block bits stay: an increment does not settle them.
+                state.written[v] = state.written[v].add(self.units[v]);
+                state.emitted[v] = exact::to_f64(state.written[v].units());
+            } else {
+                state.written[v] = state.nominal_exact[v];
+                state.emitted[v] = state.nominal[v];
+                state.unsettled &= !bit;
+                if optional {
+                    state.uncertain |= bit;
+                    state.optional_line[v] = cx.line.number;
+                } else {
+                    state.uncertain &= !bit;
+                }
+            }
+        }
+        let unknown: Vec<&str> = (0..n)
+            .filter(|&v| state.unknown & !pass.spindle & (1 << v) != 0)
+            .map(|v| pass.axis_name(v))
+            .collect();
+        out.summary.note_uncompensated(cx.line.number, &unknown);
+        Ok(None)
+    }
+
+    fn path(
+        &mut self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        end: &Solution,
+        hold: u32,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<(), Diagnostic> {
+        // Split the move where its path strays (G1 from a known start).
+        let n = pass.kin.len();
+        if pass.options.path.is_some()
+            && !state.modal.rapid
+            && !cx.motion.optional
+            && (0..n).all(|v| (self.start_known | pass.idle) & (1 << v) != 0)
+        {
+            pass.split_move(cx, &self.previous, &end.q, hold, state, out);
+        }
+        Ok(())
+    }
+
+    fn write(
+        &mut self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        end: &Solution,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<(), Diagnostic> {
+        if state.modal.incremental {
+            pass.write_increments(cx, &self.units, &end.q, state, out)
+        } else {
+            pass.write_positions(cx, &end.q, cx.motion.optional, state, out)
+        }
+    }
+}
+
+impl Pass<'_> {
+    /// Follow a G0/G1 block's axis words: `state.nominal` (and its exact twin) become the
+    /// block's programmed end, absolute or incremental, in mm and degrees. Writes each G91
+    /// word's increment exactly (units) into `units` (zeros elsewhere; an out-parameter,
+    /// because 144 bytes returned in a `Result` are copied twice). A programmed value outside
+    /// the travel is refused unless limit violations are allowed.
+    pub(super) fn advance_nominal(
+        &self,
+        cx: &Cx<'_, '_>,
+        state: &mut State,
+        out: &mut Out<'_>,
+        units: &mut [i128; MAX_AXES],
+    ) -> Result<(), Diagnostic> {
+        let n = self.kin.len();
+        let axis_words = &cx.motion.axis_words;
+        *units = [0i128; MAX_AXES];
+        for (v, word) in axis_words.iter().enumerate().take(n) {
+            let Some(i) = *word else { continue };
+            let t = &cx.tokens[i];
+            let TokenKind::Word(w) = &t.kind else {
+                continue;
+            };
+            let Value::Number { value, decimals } = w.value else {
+                continue;
+            };
+            let unit = self.unit(v, &state.modal);
+            let bit = 1u32 << v;
+            if state.modal.incremental {
+                let u = exact::number_units(
+                    value,
+                    decimals,
+                    &cx.line.content[w.value_span.clone()],
+                    unit,
+                )
+                .filter(|_| decimals <= exact::MAX_DECIMALS)
+                .ok_or_else(|| {
+                    cx.refuse(
+                        t.span.start,
+                        format!(
+                            "{} has {decimals} decimals; an incremental (G91) word can have at most {} (nccomp sums increments exactly)",
+                            w.letter as char,
+                            exact::MAX_DECIMALS
+                        ),
+                    )
+                })?;
+                if state.programmed & bit == 0 && state.unknown & bit == 0 {
+                    out.summary
+                        .note_incremental_from_home(self.axis_name(v), cx.line.number);
+                }
+                units[v] = u;
+                state.nominal_exact[v] = state.nominal_exact[v].add(u);
+                state.nominal[v] = exact::to_f64(state.nominal_exact[v].units());
+            } else {
+                state.nominal[v] = unit.to_mm(value);
+                state.nominal_exact[v] = Position::Decimal {
+                    value,
+                    decimals,
+                    unit,
+                };
+                // An optional block cannot make an axis known: with block delete on it
+                // does not run.
+                if !cx.motion.optional {
+                    state.unknown &= !bit;
+                }
+            }
+        }
+        // Programmed values outside the travel are the program's own fault.
+        for (v, word) in axis_words.iter().enumerate().take(n) {
+            if state.unknown & (1 << v) != 0 {
+                continue;
+            }
+            if let Some([lo, hi]) = self.travel(v)
+                && !(lo..=hi).contains(&state.nominal[v])
+                && !self.options.allow_limit_violations
+            {
+                let col = word.map_or(0, |i| cx.col(i));
+                return Err(cx
+                    .refuse(
+                        col,
+                        format!(
+                            "axis {} is programmed to {:.4}, outside its travel {lo} … {hi} (use --allow-limit-violations to compensate it anyway)",
+                            self.axis_name(v),
+                            state.nominal[v]
+                        ),
+                    )
+                    .with_code(TRAVEL_LIMIT));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,374 @@
+//! One block, from its text to the words written: the pipeline every block that moves goes
+//! through, whatever its mode.
+//!
+//! A line is first read ([`crate::program::Reader`]: its words, its modal state, how it
+//! moves). A block that moves then goes through five stages, here in [`Pass::block`]:
+//!
+//! 1. **Target** (the mode's): the nominal axis values its words mean at its end: the
+//!    axis words themselves (G0/G1, exactly in G91), the end of an arc, a cycle's bottom,
+//!    or, under tool-centre-point control, the nominal inverse kinematics of the tip and
+//!    the rotary words or tool vector (design/model.md, "Controller transformations").
+//! 2. **Solve** ([`Pass::solve`], shared): the axis values the real machine needs there,
+//!    with the guards that hold in every mode: a rotary axis that the correction would push
+//!    past a travel limit it was programmed within is held (refused when holding it leaves
+//!    the tip off), a correction larger than `Options::max_correction` is refused, rotary
+//!    axes at singular poses are held.
+//! 3. **Path** (the mode's): the move between the block's ends as the controller
+//!    interpolates the written words, against the nominal path of the programmed words;
+//!    where they part by more than the tolerance, blocks are inserted before the line (a
+//!    split G1 or TCP move, an arc's straight pieces), each through the same solve.
+//! 4. **Write** (the mode's): the block's words for the solved values, through the lossless
+//!    layer's editor ([`crate::nc::edit`]): a number that prints the same keeps its bytes,
+//!    a missing word is added in the block's style.
+//! 5. **Finish** ([`Pass::finish`], shared): travel limits on what the controller is now
+//!    told, and the record of what the model predicts there, before and after.
+//!
+//! The modes ([`Mode`]): machine axes ([`super::axes`], lathes' turning included), arcs
+//! ([`super::arcs`]), drilling cycles ([`super::cycles`]), tool-centre-point moves with
+//! rotary words or tool vectors, arcs among them ([`super::tcp`]). G53, G28 and G30 moves
+//! are left as they are: their axes leave the program's coordinates.
+
+use super::{Pass, State, Summary, TRAVEL_LIMIT};
+use crate::diag::Diagnostic;
+use crate::kinematics::{MAX_AXES, Model, Solution};
+use crate::nc::edit::Editor;
+use crate::nc::number::scaled;
+use crate::nc::{self, Edit, Token, TokenKind, Value};
+use crate::program::{BlockMotion, MoveKind};
+
+/// A block being compensated: its line, tokens and words, and where its refusals point.
+pub(super) struct Cx<'a, 'l> {
+    pub line: &'a nc::Line<'l>,
+    pub tokens: &'a [Token],
+    pub motion: BlockMotion,
+    pub at: &'a dyn Fn(usize, String) -> Diagnostic,
+}
+
+impl Cx<'_, '_> {
+    /// A refusal at byte `col` of the line.
+    pub fn refuse(&self, col: usize, message: String) -> Diagnostic {
+        (self.at)(col, message)
+    }
+
+    /// The column of token `i`.
+    pub fn col(&self, i: usize) -> usize {
+        self.tokens[i].span.start
+    }
+
+    /// The column of the block's first axis word (0 when it has none).
+    pub fn first_col(&self) -> usize {
+        self.motion
+            .axis_words
+            .iter()
+            .flatten()
+            .map(|&i| self.col(i))
+            .min()
+            .unwrap_or(0)
+    }
+
+    /// The number of the word at token `i` (the reader has checked it is one), its decimals
+    /// and the span of its value.
+    pub fn number(&self, i: usize) -> (f64, u8, std::ops::Range<usize>) {
+        match &self.tokens[i].kind {
+            TokenKind::Word(w) => match w.value {
+                Value::Number { value, decimals } => (value, decimals, w.value_span.clone()),
+                _ => (0.0, 0, w.value_span.clone()),
+            },
+            _ => (0.0, 0, 0..0),
+        }
+    }
+
+    /// The editor of the block's line.
+    pub fn editor<'e>(&'e self, edits: &'e mut Vec<Edit>) -> Editor<'e> {
+        Editor::new(self.line.content, self.tokens, edits)
+    }
+
+    /// The first word with `letter`, if any.
+    pub fn word(&self, letter: u8) -> Option<usize> {
+        self.tokens
+            .iter()
+            .position(|t| matches!(&t.kind, TokenKind::Word(w) if w.letter == letter))
+    }
+}
+
+/// Where a block's results go.
+pub(super) struct Out<'a> {
+    pub edits: &'a mut Vec<Edit>,
+    pub summary: &'a mut Summary,
+}
+
+/// What differs between modes: the stages of [`Pass::block`] a mode supplies.
+pub(super) trait Mode {
+    /// The nominal axis values at the block's end; `None`: the block is written as it is
+    /// (its pose cannot be evaluated).
+    fn target(
+        &mut self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<Option<[f64; MAX_AXES]>, Diagnostic>;
+
+    /// Variables the solve holds in this mode, beyond the pass's own.
+    fn hold(&self, _pass: &Pass<'_>) -> u32 {
+        0
+    }
+
+    /// Keep the path within the tolerance: blocks inserted before the line. `hold`: the
+    /// variables the block's solve held (beyond singular poses).
+    fn path(
+        &mut self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        end: &Solution,
+        hold: u32,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<(), Diagnostic>;
+
+    /// Write the block's words for `end`, and what the controller is told
+    /// (`State::emitted`).
+    fn write(
+        &mut self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        end: &Solution,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<(), Diagnostic>;
+
+    /// After the block is recorded: what the controller does at the block's end beyond its
+    /// words (a cycle's retract).
+    fn after(&mut self, _pass: &Pass<'_>, _state: &mut State) {}
+}
+
+impl Pass<'_> {
+    /// One block that moves: through the pipeline in its mode.
+    pub(super) fn block(
+        &self,
+        cx: &Cx<'_, '_>,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<(), Diagnostic> {
+        match cx.motion.kind {
+            MoveKind::Machine | MoveKind::Home => {
+                self.leave_coordinates(cx, state);
+                Ok(())
+            }
+            MoveKind::Cycle => self.run(&mut super::cycles::CycleMode::default(), cx, state, out),
+            MoveKind::Arc { clockwise } if state.modal.tcp => {
+                self.run(&mut super::tcp::TcpMode::arc(clockwise), cx, state, out)
+            }
+            MoveKind::Arc { clockwise } => {
+                self.run(&mut super::arcs::ArcMode::new(clockwise), cx, state, out)
+            }
+            MoveKind::Program if state.modal.tcp => {
+                self.run(&mut super::tcp::TcpMode::line(), cx, state, out)
+            }
+            MoveKind::Program => self.run(&mut super::axes::AxesMode::default(), cx, state, out),
+        }
+    }
+
+    /// The stages, in order.
+    fn run<M: Mode>(
+        &self,
+        mode: &mut M,
+        cx: &Cx<'_, '_>,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<(), Diagnostic> {
+        let Some(target) = mode.target(self, cx, state, out)? else {
+            return Ok(());
+        };
+        let hold = self.hold | mode.hold(self);
+        let (end, at_limit) = self.solve(&target, hold, cx, state)?;
+        mode.path(self, cx, &end, hold | at_limit, state, out)?;
+        mode.write(self, cx, &end, state, out)?;
+        self.finish(cx, &end, at_limit, state, out)?;
+        mode.after(self, state);
+        Ok(())
+    }
+
+    /// G53, G28, G30: the block stays as it is, and the axes it sends to machine positions
+    /// (all of them for a bare G28/G30) leave the program's coordinates.
+    fn leave_coordinates(&self, cx: &Cx<'_, '_>, state: &mut State) {
+        let n = self.kin.len();
+        let mut gone = (0..n)
+            .filter(|&v| cx.motion.axis_words[v].is_some())
+            .fold(0u32, |m, v| m | 1 << v);
+        if cx.motion.kind == MoveKind::Home && gone == 0 {
+            gone = (0..n).fold(0u32, |m, v| m | 1 << v);
+        }
+        state.unknown |= gone;
+        state.uncertain &= !gone;
+        state.unsettled &= !gone;
+    }
+
+    /// The solve of the pose the nominal machine reaches at `q` holding `hold` (the pass's
+    /// held axes included), with the guards every mode shares; the solution and the rotary
+    /// axes held at a travel limit.
+    pub(super) fn solve(
+        &self,
+        q: &[f64; MAX_AXES],
+        hold: u32,
+        cx: &Cx<'_, '_>,
+        state: &mut State,
+    ) -> Result<(Solution, u32), Diagnostic> {
+        let n = self.kin.len();
+        let line = cx.line.number;
+        // An axis the correction would push past a travel limit it was programmed within
+        // is held at its programmed value instead (the others still put the tip in place;
+        // the direction error it would have fixed is reported).
+        let mut hold = hold;
+        let mut at_limit = 0u32;
+        let solve = |hold: u32, state: &mut State| {
+            state
+                .presolved
+                .take(line, state.pass, &q[..n], state.modal.length, hold)
+                .unwrap_or_else(|| {
+                    self.kin
+                        .compensate(&q[..n], state.modal.length, hold, &self.options.solve)
+                })
+        };
+        // Solved in place, not moved out of a loop: a solution is 440 bytes.
+        let mut sol = solve(hold, state);
+        loop {
+            // Only rotary axes: holding one costs direction, never position.
+            let past = (0..n).find(|&v| {
+                hold & (1 << v) == 0
+                    && !self.is_linear(v)
+                    && self.travel(v).is_some_and(|[lo, hi]| {
+                        // As it would be written: a crossing below the resolution is none.
+                        let d = self.decimals.1;
+                        let x = scaled(sol.q[v], d)
+                            .map_or(sol.q[v], |k| k as f64 / 10f64.powi(d.into()));
+                        (x < lo || x > hi) && (lo..=hi).contains(&q[v])
+                    })
+            });
+            match past {
+                Some(v) if !self.options.allow_limit_violations => {
+                    hold |= 1 << v;
+                    at_limit |= 1 << v;
+                    sol = solve(hold, state);
+                }
+                _ => break,
+            }
+        }
+        let word_col = |v: usize| cx.motion.axis_words[v].map(|i| cx.col(i));
+        if at_limit != 0 && sol.position_residual > 1e-6 {
+            let v = at_limit.trailing_zeros() as usize;
+            return Err(cx
+                .refuse(
+                    word_col(v).unwrap_or(0),
+                    format!(
+                        "the correction would push axis {} past its travel limit, and holding it there leaves the tip {:.4} mm off (use --allow-limit-violations to write it anyway)",
+                        self.axis_name(v),
+                        sol.position_residual
+                    ),
+                )
+                .with_code(TRAVEL_LIMIT));
+        }
+        // Guard against a model or pose that turns microns into a big move.
+        for (v, &programmed) in q.iter().enumerate().take(n) {
+            let delta = (sol.q[v] - programmed).abs();
+            let limit = if self.is_linear(v) {
+                self.options.max_correction.0
+            } else {
+                self.options.max_correction.1
+            };
+            if delta.is_nan() || delta > limit {
+                return Err(cx.refuse(
+                    word_col(v).unwrap_or_else(|| cx.first_col()),
+                    format!(
+                        "the correction of axis {} would be {delta:.4} {} (more than {limit}); the error model or this pose is not sound",
+                        self.axis_name(v),
+                        if self.is_linear(v) { "mm" } else { "°" }
+                    ),
+                ));
+            }
+        }
+        Ok((sol, at_limit))
+    }
+
+    /// Travel limits on what the controller is now told, and the record of the block.
+    fn finish(
+        &self,
+        cx: &Cx<'_, '_>,
+        end: &Solution,
+        at_limit: u32,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) -> Result<(), Diagnostic> {
+        let n = self.kin.len();
+        for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
+            if let Some([lo, hi]) = self.travel(v) {
+                let x = state.emitted[v];
+                if x < lo - 1e-9 || x > hi + 1e-9 {
+                    let (limit, side) = if x < lo { (lo, "below") } else { (hi, "above") };
+                    let col = word.map_or(0, |i| cx.col(i));
+                    let message = if (lo..=hi).contains(&state.nominal[v]) {
+                        format!(
+                            "after compensation axis {} = {x:.4} is {side} its travel limit {limit}",
+                            self.axis_name(v)
+                        )
+                    } else {
+                        format!(
+                            "axis {} is programmed to {:.4}, {side} its travel limit {limit}",
+                            self.axis_name(v),
+                            state.nominal[v]
+                        )
+                    };
+                    if self.options.allow_limit_violations {
+                        out.summary
+                            .limit_violations
+                            .push(cx.refuse(col, message).with_code(TRAVEL_LIMIT));
+                    } else {
+                        return Err(cx
+                            .refuse(
+                                col,
+                                format!(
+                                    "{message} (use --allow-limit-violations to write it anyway)"
+                                ),
+                            )
+                            .with_code(TRAVEL_LIMIT));
+                    }
+                }
+            }
+        }
+        self.record(cx.line.number, end, state, out.summary);
+        for v in 0..n {
+            if at_limit & (1 << v) != 0 {
+                out.summary.note_at_limit(self.axis_name(v), cx.line.number);
+            }
+        }
+        Ok(())
+    }
+
+    /// Count a compensated block (or inserted piece) and record what the model predicts
+    /// for it, at the axis values the controller is now told (`State::emitted`).
+    pub(super) fn record(&self, line: usize, sol: &Solution, state: &State, summary: &mut Summary) {
+        let n = self.kin.len();
+        let (after, beyond) = self.kin.pose_near(
+            Model::Actual,
+            &state.emitted[..n],
+            state.modal.length,
+            &sol.angles,
+        );
+        let (ap, ad) = after.deviation(&sol.target);
+        summary.motion_blocks += 1;
+        summary.record(
+            line,
+            sol.start_position_error,
+            sol.start_direction_error,
+            ap,
+            ad,
+            sol.singular != 0,
+            beyond,
+        );
+        for v in 0..n {
+            if sol.singular & (1 << v) != 0 {
+                summary.note_held(self.axis_name(v));
+            }
+        }
+    }
+}
