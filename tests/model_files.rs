@@ -1034,3 +1034,58 @@ fn bad_lathe_tables_are_reported_at_their_place() {
         &["tool chain `lower` has no linear axis driven by Z"],
     );
 }
+
+#[test]
+fn a_machine_file_names_its_own_codes() {
+    let text = format!(
+        "{SMALL}\n[codes]\nharmless = [\"M100\", \"G12.1\"]\ntcp_on = [\"M428\"]\ntcp_off = [\"m429\"]\n"
+    );
+    let m = machine_file::parse(&text, "m.toml").unwrap_or_else(|e| panic!("{}", e.render()));
+    let names = |list: &[nccomp::program::CodeName]| -> Vec<String> {
+        list.iter().map(ToString::to_string).collect()
+    };
+    assert_eq!(names(&m.codes.harmless), ["M100", "G12.1"]);
+    assert_eq!(names(&m.codes.tcp_on), ["M428"]);
+    assert_eq!(names(&m.codes.tcp_off), ["M429"]);
+    // Without [codes] the machine names none.
+    assert!(
+        machine_file::parse(SMALL, "m.toml")
+            .unwrap()
+            .codes
+            .is_empty()
+    );
+}
+
+#[test]
+fn a_machine_file_cannot_rename_nccomps_codes_or_name_a_code_twice() {
+    let with = |codes: &str| machine_error(&format!("{SMALL}\n[codes]\n{codes}\n"));
+    assert_diag(
+        &with("harmless = [\"M3\"]"),
+        "m.toml:13:13",
+        &[
+            "M3 is one of nccomp's own codes",
+            "cannot give it another meaning",
+        ],
+    );
+    assert_diag(
+        &with("harmless = [\"G41\"]"),
+        "m.toml:13:13",
+        &["G41 is one of nccomp's own codes"],
+    );
+    assert_diag(
+        &with("tcp_on = [\"M428\"]\ntcp_off = [\"M428\"]"),
+        "m.toml:14:12",
+        &["M428 is already in `tcp_on`", "each code in one list, once"],
+    );
+    assert_diag(
+        &with("harmless = [\"X1\"]"),
+        "m.toml:13:13",
+        &["expected a G or M code such as \"M428\""],
+    );
+    assert_diag(
+        &with("harmless = [428]"),
+        "m.toml:13:13",
+        &["expected a string"],
+    );
+    assert_diag(&with("tcp = [\"M428\"]"), "m.toml:13:1", &["tcp"]);
+}

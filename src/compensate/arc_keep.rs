@@ -110,7 +110,7 @@ impl Pass<'_> {
         state: &State,
         tol: &PathTolerance,
     ) -> Option<CentreWords> {
-        let (tokens, motion) = (cx.tokens, &cx.motion);
+        let (tokens, motion) = (cx.tokens, cx.motion);
         let n = self.kin.len();
         let length = state.modal.length;
         let solve = |s: f64| {

@@ -76,7 +76,8 @@ impl Mode for ArcMode {
         cx: &Cx<'_, '_>,
         state: &mut State,
         out: &mut Out<'_>,
-    ) -> Result<Option<[f64; MAX_AXES]>, Diagnostic> {
+        q: &mut [f64; MAX_AXES],
+    ) -> Result<bool, Diagnostic> {
         let n = pass.kin.len();
         let col = Self::col(cx);
         let refuse =
@@ -93,7 +94,7 @@ impl Mode for ArcMode {
             return refuse("in inverse-time feed (G93) an arc needs its own F word");
         }
         let path = pass
-            .arc_path(cx.tokens, &cx.motion, self.clockwise, state)
+            .arc_path(cx.tokens, cx.motion, self.clockwise, state)
             .map_err(|why| cx.refuse(col, format!("this arc cannot be compensated: {why}")))?;
         for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
             // Axes turning holds are not corrected.
@@ -108,7 +109,8 @@ impl Mode for ArcMode {
         pass.check_travel(&path.end, col, cx)?;
         state.nominal = path.end;
         self.path = Some(path);
-        Ok(Some(path.end))
+        *q = path.end;
+        Ok(true)
     }
 
     fn path(

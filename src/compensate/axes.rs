@@ -12,24 +12,13 @@ use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Solution};
 use crate::nc::{TokenKind, Value};
 
-/// A G0/G1 block in machine axes.
+/// A G0/G1 block in machine axes. (The nominal values before the block and the G91 words'
+/// exact increments are kept in `State::previous` and `State::units`: a mode is made for
+/// every block, and 384 bytes in it would be copied each time.)
+#[derive(Default)]
 pub(super) struct AxesMode {
-    /// The nominal axis values before the block.
-    previous: [f64; MAX_AXES],
     /// Variables whose start was known.
     start_known: u32,
-    /// The G91 words' increments, exactly.
-    units: [i128; MAX_AXES],
-}
-
-impl Default for AxesMode {
-    fn default() -> Self {
-        AxesMode {
-            previous: [0.0; MAX_AXES],
-            start_known: 0,
-            units: [0; MAX_AXES],
-        }
-    }
 }
 
 impl Mode for AxesMode {
@@ -39,7 +28,8 @@ impl Mode for AxesMode {
         cx: &Cx<'_, '_>,
         state: &mut State,
         out: &mut Out<'_>,
-    ) -> Result<Option<[f64; MAX_AXES]>, Diagnostic> {
+        q: &mut [f64; MAX_AXES],
+    ) -> Result<bool, Diagnostic> {
         let n = pass.kin.len();
         let optional = cx.motion.optional;
         if optional && state.modal.incremental {
@@ -48,11 +38,12 @@ impl Mode for AxesMode {
                 "an optional block (/) in incremental mode (G91) cannot be compensated: whether it runs shifts every later incremental move, and no correction is right for both settings of block delete (program the block in G90)".into(),
             ));
         }
-        self.previous = state.nominal;
+        state.previous = state.nominal;
         self.start_known = state.programmed & !state.unknown;
-        pass.advance_nominal(cx, state, out, &mut self.units)?;
+        pass.advance_nominal(cx, state, out)?;
         if state.unknown & !pass.spindle == 0 {
-            return Ok(Some(state.nominal));
+            *q = state.nominal;
+            return Ok(true);
         }
         // The pose cannot be evaluated: the block is written as it is, and what the
         // machine is told is what the program says.
@@ -67,7 +58,7 @@ impl Mode for AxesMode {
             state.programmed |= bit;
             if state.modal.incremental {
                 // The optional-block bits stay: an increment does not settle them.
-                state.written[v] = state.written[v].add(self.units[v]);
+                state.written[v] = state.written[v].add(state.units[v]);
                 state.emitted[v] = exact::to_f64(state.written[v].units());
             } else {
                 state.written[v] = state.nominal_exact[v];
@@ -86,7 +77,7 @@ impl Mode for AxesMode {
             .map(|v| pass.axis_name(v))
             .collect();
         out.summary.note_uncompensated(cx.line.number, &unknown);
-        Ok(None)
+        Ok(false)
     }
 
     fn path(
@@ -105,7 +96,8 @@ impl Mode for AxesMode {
             && !cx.motion.optional
             && (0..n).all(|v| (self.start_known | pass.idle) & (1 << v) != 0)
         {
-            pass.split_move(cx, &self.previous, &end.q, hold, state, out);
+            let previous = state.previous;
+            pass.split_move(cx, &previous, &end.q, hold, state, out);
         }
         Ok(())
     }
@@ -119,7 +111,8 @@ impl Mode for AxesMode {
         out: &mut Out<'_>,
     ) -> Result<(), Diagnostic> {
         if state.modal.incremental {
-            pass.write_increments(cx, &self.units, &end.q, state, out)
+            let units = state.units;
+            pass.write_increments(cx, &units, &end.q, state, out)
         } else {
             pass.write_positions(cx, &end.q, cx.motion.optional, state, out)
         }
@@ -128,20 +121,18 @@ impl Mode for AxesMode {
 
 impl Pass<'_> {
     /// Follow a G0/G1 block's axis words: `state.nominal` (and its exact twin) become the
-    /// block's programmed end, absolute or incremental, in mm and degrees. Writes each G91
-    /// word's increment exactly (units) into `units` (zeros elsewhere; an out-parameter,
-    /// because 144 bytes returned in a `Result` are copied twice). A programmed value outside
-    /// the travel is refused unless limit violations are allowed.
+    /// block's programmed end, absolute or incremental, in mm and degrees, and
+    /// `state.units` each G91 word's increment exactly (zeros elsewhere). A programmed value
+    /// outside the travel is refused unless limit violations are allowed.
     pub(super) fn advance_nominal(
         &self,
         cx: &Cx<'_, '_>,
         state: &mut State,
         out: &mut Out<'_>,
-        units: &mut [i128; MAX_AXES],
     ) -> Result<(), Diagnostic> {
         let n = self.kin.len();
         let axis_words = &cx.motion.axis_words;
-        *units = [0i128; MAX_AXES];
+        state.units = [0i128; MAX_AXES];
         for (v, word) in axis_words.iter().enumerate().take(n) {
             let Some(i) = *word else { continue };
             let t = &cx.tokens[i];
@@ -175,7 +166,7 @@ impl Pass<'_> {
                     out.summary
                         .note_incremental_from_home(self.axis_name(v), cx.line.number);
                 }
-                units[v] = u;
+                state.units[v] = u;
                 state.nominal_exact[v] = state.nominal_exact[v].add(u);
                 state.nominal[v] = exact::to_f64(state.nominal_exact[v].units());
             } else {

@@ -72,7 +72,8 @@ impl Mode for CycleMode {
         cx: &Cx<'_, '_>,
         state: &mut State,
         _out: &mut Out<'_>,
-    ) -> Result<Option<[f64; MAX_AXES]>, Diagnostic> {
+        q: &mut [f64; MAX_AXES],
+    ) -> Result<bool, Diagnostic> {
         let n = pass.kin.len();
         let axis_words = &cx.motion.axis_words;
         let refuse = |why: &str| Err(Self::refuse(cx, why.to_string()));
@@ -170,7 +171,8 @@ impl Mode for CycleMode {
         self.r_plane[vz] = r_plane;
         pass.check_travel(&q_bottom, Self::col(cx), cx)?;
         pass.check_travel(&self.r_plane, Self::col(cx), cx)?;
-        Ok(Some(q_bottom))
+        *q = q_bottom;
+        Ok(true)
     }
 
     /// The rotary axes stay where they are; the linear ones take the whole correction.

@@ -97,7 +97,8 @@ impl Parked {
 impl Compensator<'_> {
     /// Read one block with the program's reader and follow what it changed: the tool chain
     /// and spindle mode (which pass the block runs in, the axes that become unknown), tool-
-    /// centre-point control switched on, a cycle ended. The block's motion, if it moves.
+    /// centre-point control switched on, a cycle ended. Whether it moves, and how (into
+    /// `motion`).
     pub(super) fn read(
         &self,
         line: &nc::Line<'_>,
@@ -105,10 +106,11 @@ impl Compensator<'_> {
         state: &mut State,
         summary: &mut super::Summary,
         at: &dyn Fn(usize, String) -> Diagnostic,
-    ) -> Result<Option<BlockMotion>, Diagnostic> {
+        motion: &mut BlockMotion,
+    ) -> Result<bool, Diagnostic> {
         let before = (state.modal.chain, state.modal.spindle);
         let was_tcp = state.modal.tcp.then_some(state.modal.tcp_vector);
-        let read = self.reader.read(line, tokens, &mut state.modal, at);
+        let read = self.reader.read(line, tokens, &mut state.modal, at, motion);
         // The chain and spindle mode change even when a later word of the block is refused.
         if state.modal.chain != before.0 && self.switch_chain(state, state.modal.chain) {
             summary.lathe_unknown = true;
@@ -132,7 +134,7 @@ impl Compensator<'_> {
             }
         }
         state.pass = pass;
-        let motion = read?;
+        let moves = read?;
         if state.modal.motion != Some(Motion::Cycle) {
             state.cycle = None;
         }
@@ -144,7 +146,7 @@ impl Compensator<'_> {
             state.modal.tcp_vector = false;
             return Err(d);
         }
-        Ok(motion)
+        Ok(moves)
     }
 
     /// Park the axes of the active chain and bring in those of `chain`. True when an axis

@@ -168,6 +168,10 @@ struct State {
     optional_line: [usize; MAX_AXES],
     /// Line of the optional block that left variable k unsettled.
     corrected_line: [usize; MAX_AXES],
+    /// The nominal values before the current block, and its G91 words' increments exactly
+    /// (scratch of the machine-axes mode).
+    previous: [f64; MAX_AXES],
+    units: [i128; MAX_AXES],
     /// Solutions worked out ahead by a helper thread.
     presolved: presolve::Presolved,
     /// Emptied texts of earlier edits, to write new ones in without allocating.
@@ -321,6 +325,8 @@ impl<'m> Compensator<'m> {
             unsettled: 0,
             optional_line: [0; MAX_AXES],
             corrected_line: [0; MAX_AXES],
+            previous: [0.0; MAX_AXES],
+            units: [0; MAX_AXES],
             presolved: presolve::Presolved::default(),
             spare_texts: Vec::new(),
             pieces: Vec::new(),

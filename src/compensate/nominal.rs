@@ -82,6 +82,7 @@ impl Compensator<'_> {
         let mut moves = Vec::new();
         let mut errors: Vec<Diagnostic> = Vec::new();
         let mut tokens: Vec<Token> = Vec::new();
+        let mut motion = BlockMotion::default();
         let mut feed: Option<f64> = None;
         // The pass the first move runs in.
         let mut followed: Option<usize> = None;
@@ -93,15 +94,15 @@ impl Compensator<'_> {
                 Diagnostic::at(path, src, line.offset + offset, message)
             };
             let result = self
-                .read(&line, &tokens, &mut state, &mut summary, &at)
-                .and_then(|motion| {
+                .read(&line, &tokens, &mut state, &mut summary, &at, &mut motion)
+                .and_then(|moving| {
                     let pass = &self.passes[state.pass];
                     if let Some(f) = feed_word(&tokens) {
                         feed = Some(if state.modal.inch { f * INCH } else { f });
                     }
-                    let Some(motion) = motion else {
+                    if !moving {
                         return Ok(None);
-                    };
+                    }
                     let col = motion
                         .axis_words
                         .iter()
@@ -229,7 +230,7 @@ impl Pass<'_> {
                 let cx = Cx {
                     line,
                     tokens,
-                    motion: *motion,
+                    motion,
                     at,
                 };
                 let mut edits = Vec::new();
@@ -237,7 +238,7 @@ impl Pass<'_> {
                     edits: &mut edits,
                     summary,
                 };
-                self.advance_nominal(&cx, state, &mut out, &mut [0; MAX_AXES])?;
+                self.advance_nominal(&cx, state, &mut out)?;
                 if state.modal.rapid {
                     Shape::Rapid
                 } else {

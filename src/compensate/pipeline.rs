@@ -40,7 +40,7 @@ use crate::program::{BlockMotion, MoveKind};
 pub(super) struct Cx<'a, 'l> {
     pub line: &'a nc::Line<'l>,
     pub tokens: &'a [Token],
-    pub motion: BlockMotion,
+    pub motion: &'a BlockMotion,
     pub at: &'a dyn Fn(usize, String) -> Diagnostic,
 }
 
@@ -99,15 +99,16 @@ pub(super) struct Out<'a> {
 
 /// What differs between modes: the stages of [`Pass::block`] a mode supplies.
 pub(super) trait Mode {
-    /// The nominal axis values at the block's end; `None`: the block is written as it is
-    /// (its pose cannot be evaluated).
+    /// The nominal axis values at the block's end, into `q`; false: the block is written as
+    /// it is (its pose cannot be evaluated).
     fn target(
         &mut self,
         pass: &Pass<'_>,
         cx: &Cx<'_, '_>,
         state: &mut State,
         out: &mut Out<'_>,
-    ) -> Result<Option<[f64; MAX_AXES]>, Diagnostic>;
+        q: &mut [f64; MAX_AXES],
+    ) -> Result<bool, Diagnostic>;
 
     /// Variables the solve holds in this mode, beyond the pass's own.
     fn hold(&self, _pass: &Pass<'_>) -> u32 {
@@ -177,14 +178,21 @@ impl Pass<'_> {
         state: &mut State,
         out: &mut Out<'_>,
     ) -> Result<(), Diagnostic> {
-        let Some(target) = mode.target(self, cx, state, out)? else {
+        // Filled by the mode (an out-parameter: 128 bytes in a `Result` are copied twice).
+        let mut target = [0.0; MAX_AXES];
+        if !mode.target(self, cx, state, out, &mut target)? {
             return Ok(());
-        };
+        }
         let hold = self.hold | mode.hold(self);
-        let (end, at_limit) = self.solve(&target, hold, cx, state)?;
-        mode.path(self, cx, &end, hold | at_limit, state, out)?;
-        mode.write(self, cx, &end, state, out)?;
-        self.finish(cx, &end, at_limit, state, out)?;
+        // Used where it lies: moved out of the `Result`, the 440-byte solution is copied.
+        let solved = self.solve(&target, hold, cx, state);
+        let (end, at_limit) = match &solved {
+            Ok((end, at_limit)) => (end, *at_limit),
+            Err(_) => return solved.map(|_| ()),
+        };
+        mode.path(self, cx, end, hold | at_limit, state, out)?;
+        mode.write(self, cx, end, state, out)?;
+        self.finish(cx, end, at_limit, state, out)?;
         mode.after(self, state);
         Ok(())
     }

@@ -22,7 +22,7 @@ use super::Compensator;
 use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Solution};
 use crate::nc;
-use crate::program::{Modal, Motion, MoveKind};
+use crate::program::{BlockMotion, Modal, Motion, MoveKind};
 
 /// The share of the solves the pass keeps for itself at the start: the helper does the
 /// rest. [`balance`] then moves it chunk by chunk towards where neither thread waits for
@@ -122,6 +122,7 @@ pub(super) struct Predictor {
     modal: Modal,
     nominal: [f64; MAX_AXES],
     tokens: Vec<nc::Token>,
+    motion: BlockMotion,
     /// The pass predicted (index into `Compensator::passes`); `None`: the program has
     /// left what the prediction follows.
     pass: Option<usize>,
@@ -136,6 +137,7 @@ impl Predictor {
             modal: Modal::start(comp.machine, comp.start),
             nominal: [0.0; MAX_AXES],
             tokens: Vec::new(),
+            motion: BlockMotion::default(),
             pass: comp.machine.lathe.is_none().then_some(comp.start),
             owed: 0.0,
         }
@@ -166,7 +168,10 @@ impl Predictor {
             };
             let pass = &comp.passes[index];
             nc::parse_line(line.content, &mut self.tokens);
-            let Ok(motion) = comp.reader.read(&line, &self.tokens, &mut self.modal, &at) else {
+            let Ok(moves) =
+                comp.reader
+                    .read(&line, &self.tokens, &mut self.modal, &at, &mut self.motion)
+            else {
                 self.pass = None;
                 return;
             };
@@ -175,7 +180,10 @@ impl Predictor {
                 self.pass = None;
                 return;
             }
-            let Some(motion) = motion else { continue };
+            let motion = &self.motion;
+            if !moves {
+                continue;
+            }
             if motion.kind != MoveKind::Program
                 || motion.optional
                 || self.modal.incremental

@@ -14,6 +14,7 @@ use super::presolve::{Ahead, Predictor, START_SHARE, balance};
 use super::{Compensator, State, Summary};
 use crate::diag::{Diagnostic, Error};
 use crate::nc::{self, Edit, Token, TokenKind};
+use crate::program::BlockMotion;
 
 /// Bytes read at a time; a longer line makes the buffer grow to hold it.
 pub(super) const CHUNK: usize = 256 * 1024;
@@ -24,6 +25,8 @@ pub(super) struct Run<'c, 'm> {
     comp: &'c Compensator<'m>,
     state: State,
     tokens: Vec<Token>,
+    /// The current block's motion (filled by the reader).
+    motion: BlockMotion,
     edits: Vec<Edit>,
     errors: Vec<Diagnostic>,
     summary: Summary,
@@ -35,6 +38,7 @@ impl<'c, 'm> Run<'c, 'm> {
             comp,
             state: comp.start_state(),
             tokens: Vec::new(),
+            motion: BlockMotion::default(),
             edits: Vec::new(),
             errors: Vec::new(),
             summary: Summary {
@@ -71,20 +75,21 @@ impl<'c, 'm> Run<'c, 'm> {
         let tokens = &self.tokens;
         let edits = &mut self.edits;
         let blocks = summary.motion_blocks;
+        let motion = &mut self.motion;
         let result = comp
-            .read(line, tokens, state, summary, &at)
-            .and_then(|motion| match motion {
-                Some(motion) => {
-                    let cx = Cx {
-                        line,
-                        tokens,
-                        motion,
-                        at: &at,
-                    };
-                    let mut out = Out { edits, summary };
-                    comp.passes[state.pass].block(&cx, state, &mut out)
+            .read(line, tokens, state, summary, &at, motion)
+            .and_then(|moves| {
+                if !moves {
+                    return Ok(());
                 }
-                None => Ok(()),
+                let cx = Cx {
+                    line,
+                    tokens,
+                    motion,
+                    at: &at,
+                };
+                let mut out = Out { edits, summary };
+                comp.passes[state.pass].block(&cx, state, &mut out)
             });
         let pass = &comp.passes[state.pass];
         if summary.motion_blocks > blocks {

@@ -133,7 +133,8 @@ impl Mode for TcpMode {
         cx: &Cx<'_, '_>,
         state: &mut State,
         out: &mut Out<'_>,
-    ) -> Result<Option<[f64; MAX_AXES]>, Diagnostic> {
+        q: &mut [f64; MAX_AXES],
+    ) -> Result<bool, Diagnostic> {
         let n = pass.kin.len();
         let code = code(state);
         let first = cx
@@ -252,7 +253,10 @@ impl Mode for TcpMode {
             self.tip_arc = Some(self.tip_arc(pass, cx, state, clockwise, tip)?);
         }
         // Under G43.5 at a singular pose the rotary axes keep their programmed values: the
-        // vector is then written as programmed, and the controller holds the free axis.
+        // vector is then written as programmed, and the controller holds the free axis where
+        // it stands. The programmed axis values hold it where the program left it (the next
+        // blocks start from them); the solve starts where the controller holds it.
+        let mut solve_at = nominal;
         if vector {
             let (pose, jac) =
                 pass.kin
@@ -263,11 +267,17 @@ impl Mode for TcpMode {
             if singular != 0 {
                 // The solve holds the singular axes itself (and says so).
                 self.hold = pass.rotary_mask() & !singular;
+                let target = Pose { p: tip, o: pose.o };
+                if let Some(held) = pass.controller_ik(&target, &state.emitted, state.modal.length)
+                {
+                    solve_at = held;
+                }
             }
         }
         state.nominal = nominal;
         state.programmed |= (1u32 << n) - 1;
-        Ok(Some(nominal))
+        *q = solve_at;
+        Ok(true)
     }
 
     fn hold(&self, _pass: &Pass<'_>) -> u32 {
@@ -286,6 +296,9 @@ impl Mode for TcpMode {
         let Some(start) = self.start else {
             return Ok(());
         };
+        // The rotary axes held at a singular end are held there only: on the way the pose
+        // is not singular (or is, and the solve holds the axis itself).
+        let hold = hold & !self.hold;
         let last = self.written_end(pass, 1.0, end, state);
         self.pieces.clear();
         if let Some(arc) = self.tip_arc {
@@ -991,9 +1004,13 @@ impl Pass<'_> {
     }
 
     /// The controller's nominal inverse kinematics of a tip and tool direction, from the
-    /// axis values `from`: of the solutions, the one whose rotary axes move least; a
-    /// rotary axis whose line lies along the tool direction keeps its value (Fanuc: "the
-    /// master axis does not move from the current angle").
+    /// axis values `from`: the solution Newton's method reaches from there (the branch
+    /// nearest it), each rotary axis a whole number of turns from where it would land so
+    /// that it moves at most half a turn (within its travel where it has one); a rotary
+    /// axis whose line lies along the tool direction keeps its value (Fanuc: "the master
+    /// axis does not move from the current angle"). Where Newton's method does not land
+    /// from `from` (a start at a singular pose, where the free axis gives no direction),
+    /// the solution that moves the rotary axes least from a few starts around it.
     pub(super) fn controller_ik(
         &self,
         target: &Pose,
@@ -1011,31 +1028,39 @@ impl Pass<'_> {
         let rotary: Vec<usize> = (0..n)
             .filter(|&v| self.kin.kind(v) == AxisKind::Rotary)
             .collect();
+        let near = |mut q: [f64; MAX_AXES]| {
+            for &v in &rotary {
+                q[v] += 360.0 * ((from[v] - q[v]) / 360.0).round();
+                if let Some([lo, hi]) = self.travel(v) {
+                    if q[v] < lo && q[v] + 360.0 <= hi {
+                        q[v] += 360.0;
+                    } else if q[v] > hi && q[v] - 360.0 >= lo {
+                        q[v] -= 360.0;
+                    }
+                }
+            }
+            q
+        };
+        let solve = |start: &[f64; MAX_AXES]| {
+            self.kin
+                .inverse(Model::Nominal, target, &start[..n], length, &far)
+                .map(|sol| near(sol.q))
+        };
+        if let Some(q) = solve(from) {
+            return Some(q);
+        }
         let moved =
             |q: &[f64; MAX_AXES]| rotary.iter().map(|&v| (q[v] - from[v]).abs()).sum::<f64>();
         let mut best: Option<[f64; MAX_AXES]> = None;
-        // Starts: where the axes stand, and each rotary axis a quarter and half turn away
-        // (Newton from one start finds the branch nearest it, if any).
-        let mut starts = vec![*from];
         for &v in &rotary {
-            for turn in [90.0, -90.0, 180.0] {
-                let mut s = *from;
-                s[v] += turn;
-                starts.push(s);
-            }
-        }
-        for start in &starts {
-            let Some(sol) = self
-                .kin
-                .inverse(Model::Nominal, target, &start[..n], length, &far)
-            else {
-                continue;
-            };
-            if best.is_none_or(|b| moved(&sol.q) < moved(&b) - 1e-9) {
-                best = Some(sol.q);
-            }
-            if start == from && moved(&sol.q) < 1e-6 {
-                break;
+            for turn in [30.0, -30.0, 90.0, -90.0, 180.0] {
+                let mut start = *from;
+                start[v] += turn;
+                if let Some(q) = solve(&start)
+                    && best.is_none_or(|b| moved(&q) < moved(&b) - 1e-9)
+                {
+                    best = Some(q);
+                }
             }
         }
         best

@@ -27,11 +27,12 @@ impl Pass<'_> {
             let value = unit.of_mm(q[v]);
             match axis_words[v] {
                 Some(i) => {
-                    let d = cx.number(i).1.max(self.res_decimals(v, unit));
+                    let (old, decimals, _) = cx.number(i);
+                    let d = decimals.max(self.res_decimals(v, unit));
                     state.decimals[v] = d;
                     let mut editor = Editor::new(line.content, cx.tokens, out.edits)
                         .with_spare(&mut state.spare_texts);
-                    let (written, changed) = editor.set_number(i, value, d);
+                    let (written, changed) = editor.set_number_from(i, old, value, d);
                     state.emitted[v] = unit.to_mm(written);
                     if changed {
                         state.written[v] = Position::Decimal {

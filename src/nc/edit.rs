@@ -126,6 +126,13 @@ impl<'a> Editor<'a> {
         let Some((old, _)) = self.number(i) else {
             return (value, false);
         };
+        self.set_number_from(i, old, value, decimals)
+    }
+
+    /// [`Editor::set_number`] for a caller that has read the word's number `old` (a pass
+    /// over millions of words reads it once).
+    #[inline]
+    pub fn set_number_from(&mut self, i: usize, old: f64, value: f64, decimals: u8) -> (f64, bool) {
         let rounded = Rounded::new(value, decimals);
         if rounded.prints_as(old) {
             return (old, false);

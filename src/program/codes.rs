@@ -283,6 +283,9 @@ pub fn m_code(code10: i64, extra: &MachineCodes) -> Code {
         // override switches (M48–M53), digital and analog outputs and waiting on an input
         // (M62–M68): none moves an axis.
         0 | 10 | 60 | 70 | 80 | 90 | 480 | 490 | 500 | 510 | 520 | 530 | 620..=680 => Harmless,
+        600 => Unsupported("a pallet change (M60)"),
+        610 => Unsupported("setting the tool number without a tool change (M61)"),
+        700..=730 => Unsupported("saving or restoring the modal state (M70–M73)"),
         _ => extra
             .meaning(CodeName {
                 letter: b'M',
@@ -328,7 +331,7 @@ mod tests {
     #[test]
     fn m_codes_are_a_whitelist() {
         let none = MachineCodes::default();
-        for code in [1280, 9990, 4280, 600, 610, 700] {
+        for code in [1280, 9990, 4280, 690, 740, 1000] {
             assert_eq!(m_code(code, &none), Code::Unknown, "M{}", code / 10);
         }
         for code in [0, 10, 20, 60, 80, 90, 300] {

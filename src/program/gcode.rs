@@ -31,17 +31,19 @@ fn is_optional(tokens: &[Token]) -> bool {
 
 impl Reader<'_> {
     /// Read one block: check that every word is understood, follow its modal words in
-    /// `modal`, and say how it moves (`None`: it moves nothing). On a refusal `modal` holds
-    /// what the block changed before the refused word.
+    /// `modal`, and say whether it moves and how (into `motion`, a caller's buffer reused
+    /// from block to block). On a refusal `modal` holds what the block changed before the
+    /// refused word.
     pub fn read(
         &self,
         line: &nc::Line<'_>,
         tokens: &[Token],
         modal: &mut Modal,
         at: At<'_>,
-    ) -> Result<Option<BlockMotion>, Diagnostic> {
+        motion: &mut BlockMotion,
+    ) -> Result<bool, Diagnostic> {
         self.select(line, tokens, modal, at)?;
-        self.read_words(line, tokens, modal, at)
+        self.read_words(line, tokens, modal, at, motion)
     }
 
     /// Follow the block's T word and spindle codes: the tool chain and spindle mode the
@@ -176,18 +178,24 @@ impl Reader<'_> {
     }
 
     /// Check that every word is understood, follow the modal words, and say which axis
-    /// words the block moves (`None`: it moves nothing).
+    /// words the block moves (false: it moves nothing).
     fn read_words(
         &self,
         line: &nc::Line<'_>,
         tokens: &[Token],
         state: &mut Modal,
         at: At<'_>,
-    ) -> Result<Option<BlockMotion>, Diagnostic> {
+        out: &mut BlockMotion,
+    ) -> Result<bool, Diagnostic> {
         let words = &self.chains[state.chain];
         let n = words.letters.len();
         let optional = is_optional(tokens);
-        let mut axis_words: [Option<usize>; MAX_AXES] = [None; MAX_AXES];
+        // Written in place: the block's motion is 340 bytes.
+        out.axis_words = [None; MAX_AXES];
+        out.arc_words = [None; 4];
+        out.arc_code = None;
+        out.optional = optional;
+        let axis_words = &mut out.axis_words;
         let mut has_words = false;
         let mut dwell = false;
         let mut motion_in_block: Option<(Motion, usize)> = None;
@@ -392,6 +400,15 @@ impl Reader<'_> {
                         tcp_vector = false;
                     }
                     Code::TcpOff => tcp_off = true,
+                    Code::Unsupported(what) => {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "{} cannot be compensated: {what} is not supported",
+                                code_text(line.content, t)
+                            ),
+                        ));
+                    }
                     Code::Unknown => {
                         return Err(at(
                             t.span.start,
@@ -468,7 +485,7 @@ impl Reader<'_> {
             }
         }
         if !has_words {
-            return Ok(None);
+            return Ok(false);
         }
         if let Some(col) = o_word {
             if tokens.iter().any(|t| {
@@ -476,7 +493,7 @@ impl Reader<'_> {
             }) {
                 return Err(at(col, "O-word control flow (subprograms, loops, conditionals) cannot be compensated; expected a plain program number line".into()));
             }
-            return Ok(None);
+            return Ok(false);
         }
         if g43 {
             let tool = &self.machine.tool;
@@ -522,13 +539,10 @@ impl Reader<'_> {
                     "a canned cycle cannot be combined with G28/G30/G53".into(),
                 ));
             }
-            return Ok(Some(BlockMotion {
-                axis_words,
-                arc_words,
-                arc_code,
-                optional,
-                kind: MoveKind::Cycle,
-            }));
+            out.arc_words = arc_words;
+            out.arc_code = arc_code;
+            out.kind = MoveKind::Cycle;
+            return Ok(true);
         }
         let arc = state.motion == Some(Motion::Arc);
         if arc && (axis_words[..n].iter().any(Option::is_some) || arc_word.is_some()) {
@@ -539,15 +553,12 @@ impl Reader<'_> {
             if special.is_some() {
                 return Err(at(col, "an arc cannot be combined with G28/G30/G53".into()));
             }
-            return Ok(Some(BlockMotion {
-                axis_words,
-                arc_words,
-                arc_code,
-                optional,
-                kind: MoveKind::Arc {
-                    clockwise: state.clockwise,
-                },
-            }));
+            out.arc_words = arc_words;
+            out.arc_code = arc_code;
+            out.kind = MoveKind::Arc {
+                clockwise: state.clockwise,
+            };
+            return Ok(true);
         }
         if state.tcp_vector && special.is_none() {
             // G43.5: I, J, K are the tool vector; R means nothing here.
@@ -559,15 +570,11 @@ impl Reader<'_> {
             }
             let vector = arc_words[..3].iter().any(Option::is_some);
             if dwell || !(vector || axis_words[..n].iter().any(Option::is_some)) {
-                return Ok(None);
+                return Ok(false);
             }
-            return Ok(Some(BlockMotion {
-                axis_words,
-                arc_words,
-                arc_code: None,
-                optional,
-                kind: MoveKind::Program,
-            }));
+            out.arc_words = arc_words;
+            out.kind = MoveKind::Program;
+            return Ok(true);
         }
         if let Some((letter, col)) = arc_word {
             return Err(at(
@@ -591,27 +598,17 @@ impl Reader<'_> {
         }
         match special {
             // G53 without axis words moves nothing.
-            Some(MoveKind::Machine) if !moves => return Ok(None),
+            Some(MoveKind::Machine) if !moves => return Ok(false),
             Some(kind) => {
-                return Ok(Some(BlockMotion {
-                    axis_words,
-                    arc_words: [None; 4],
-                    arc_code: None,
-                    optional,
-                    kind,
-                }));
+                out.kind = kind;
+                return Ok(true);
             }
             None => {}
         }
         if dwell || !moves {
-            return Ok(None);
+            return Ok(false);
         }
-        Ok(Some(BlockMotion {
-            axis_words,
-            arc_words: [None; 4],
-            arc_code: None,
-            optional,
-            kind: MoveKind::Program,
-        }))
+        out.kind = MoveKind::Program;
+        Ok(true)
     }
 }

@@ -58,6 +58,18 @@ pub struct BlockMotion {
     pub kind: MoveKind,
 }
 
+impl Default for BlockMotion {
+    fn default() -> Self {
+        BlockMotion {
+            axis_words: [None; MAX_AXES],
+            arc_words: [None; 4],
+            arc_code: None,
+            optional: false,
+            kind: MoveKind::Program,
+        }
+    }
+}
+
 /// What the lathe's spindle does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Spindle {
