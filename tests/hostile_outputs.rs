@@ -36,6 +36,30 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// `compensate -q` of the demo program to `output`.
+fn compensate_to(output: &str) -> Output {
+    nccomp(&["compensate", "-q", "-m", M, "-e", E, PROGRAM, "-o", output])
+}
+
+/// `simulate-cut` of the feature workpiece, writing its two CSV files.
+fn simulate_cut(on_machine: &str, cmm: &str) -> Output {
+    nccomp(&[
+        "simulate-cut",
+        "-m",
+        M,
+        "--plan",
+        "fixtures/feature_workpiece.plan.toml",
+        "--program",
+        "fixtures/feature_workpiece.nc",
+        "-e",
+        E,
+        "--on-machine",
+        on_machine,
+        "--cmm",
+        cmm,
+    ])
+}
+
 /// What `compensate` writes for the demo program (to standard output).
 fn compensated() -> Vec<u8> {
     let out = nccomp(&["compensate", "-q", "-m", M, "-e", E, PROGRAM]);
@@ -162,39 +186,11 @@ fn an_output_that_is_an_input_is_refused_before_anything_is_written() {
         "fixtures/grinder.budget.toml",
     ]);
     refused_as_same_file(&out, "is the same file as the budget file");
-    let out = nccomp(&[
-        "simulate-cut",
-        "-m",
-        M,
-        "--plan",
-        "fixtures/feature_workpiece.plan.toml",
-        "--program",
-        "fixtures/feature_workpiece.nc",
-        "-e",
-        E,
-        "--on-machine",
-        "fixtures/feature_workpiece.nc",
-        "--cmm",
-        s(&dir.join("cmm.csv")),
-    ]);
+    let out = simulate_cut("fixtures/feature_workpiece.nc", s(&dir.join("cmm.csv")));
     refused_as_same_file(&out, "is the same file as the program");
     // Two outputs of one command on one file.
     let twice = dir.join("twice.csv");
-    let out = nccomp(&[
-        "simulate-cut",
-        "-m",
-        M,
-        "--plan",
-        "fixtures/feature_workpiece.plan.toml",
-        "--program",
-        "fixtures/feature_workpiece.nc",
-        "-e",
-        E,
-        "--on-machine",
-        s(&twice),
-        "--cmm",
-        s(&twice),
-    ]);
+    let out = simulate_cut(s(&twice), s(&twice));
     assert_eq!(out.status.code(), Some(2));
     assert!(
         stderr(&out).contains(&format!(
@@ -216,17 +212,7 @@ fn a_symlink_is_written_through_and_stays_a_symlink() {
     std::fs::set_permissions(&target, std::fs::Permissions::from_mode(0o640)).unwrap();
     let link = dir.join("link.nc");
     std::os::unix::fs::symlink("target.nc", &link).unwrap();
-    let out = nccomp(&[
-        "compensate",
-        "-q",
-        "-m",
-        M,
-        "-e",
-        E,
-        PROGRAM,
-        "-o",
-        s(&link),
-    ]);
+    let out = compensate_to(s(&link));
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(
         std::fs::symlink_metadata(&link)
@@ -240,17 +226,7 @@ fn a_symlink_is_written_through_and_stays_a_symlink() {
     // A dangling symlink: the file it names is made.
     let dangling = dir.join("dangling.nc");
     std::os::unix::fs::symlink("made.nc", &dangling).unwrap();
-    let out = nccomp(&[
-        "compensate",
-        "-q",
-        "-m",
-        M,
-        "-e",
-        E,
-        PROGRAM,
-        "-o",
-        s(&dangling),
-    ]);
+    let out = compensate_to(s(&dangling));
     assert!(out.status.success(), "{}", stderr(&out));
     assert_eq!(std::fs::read(dir.join("made.nc")).unwrap(), compensated());
     assert!(
@@ -282,32 +258,12 @@ fn a_fifo_a_device_and_standard_output_are_written_as_streams() {
         let fifo = fifo.clone();
         move || std::fs::read(fifo).unwrap()
     });
-    let out = nccomp(&[
-        "compensate",
-        "-q",
-        "-m",
-        M,
-        "-e",
-        E,
-        PROGRAM,
-        "-o",
-        s(&fifo),
-    ]);
+    let out = compensate_to(s(&fifo));
     assert!(out.status.success(), "{}", stderr(&out));
     assert_eq!(reader.join().unwrap(), compensated());
     assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
     // A character device stays one.
-    let out = nccomp(&[
-        "compensate",
-        "-q",
-        "-m",
-        M,
-        "-e",
-        E,
-        PROGRAM,
-        "-o",
-        "/dev/null",
-    ]);
+    let out = compensate_to("/dev/null");
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(
         std::fs::metadata("/dev/null")
@@ -391,17 +347,7 @@ fn new_files_follow_the_umask_and_replaced_files_keep_their_mode() {
     assert_eq!(mode("new.nc"), 0o640);
     assert_eq!(mode("map.svg"), 0o664);
     std::fs::set_permissions(dir.join("new.nc"), std::fs::Permissions::from_mode(0o600)).unwrap();
-    let out = nccomp(&[
-        "compensate",
-        "-q",
-        "-m",
-        M,
-        "-e",
-        E,
-        PROGRAM,
-        "-o",
-        s(&dir.join("new.nc")),
-    ]);
+    let out = compensate_to(s(&dir.join("new.nc")));
     assert!(out.status.success());
     assert_eq!(mode("new.nc"), 0o600);
 }
@@ -560,17 +506,7 @@ fn a_run_never_removes_a_temporary_file_another_run_holds() {
     // And the temporary file of another output whose name starts the same.
     let other = dir.join(".part.nc.nccomp-4194304-x.nccomp-4194305-Zz9Yy8.tmp");
     std::fs::write(&other, "another output's\n").unwrap();
-    let out = nccomp(&[
-        "compensate",
-        "-q",
-        "-m",
-        M,
-        "-e",
-        E,
-        PROGRAM,
-        "-o",
-        s(&dest),
-    ]);
+    let out = compensate_to(s(&dest));
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(held.exists(), "a held temporary file was removed");
     assert!(
@@ -579,17 +515,7 @@ fn a_run_never_removes_a_temporary_file_another_run_holds() {
     );
     // Once nobody holds it, it is what a killed run left: the next run removes it.
     drop(lock);
-    let out = nccomp(&[
-        "compensate",
-        "-q",
-        "-m",
-        M,
-        "-e",
-        E,
-        PROGRAM,
-        "-o",
-        s(&dest),
-    ]);
+    let out = compensate_to(s(&dest));
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(!held.exists(), "a stale temporary file stayed");
     assert!(other.exists());

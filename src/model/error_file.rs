@@ -21,7 +21,7 @@
 //! nothing but its units is the zero model.
 
 use super::limits;
-use super::machine_file::Doc;
+use super::machine_file::{Bounds, Doc};
 use super::terms::{self, Quantity, TermName, and_list, or_list, suggest};
 use super::{Axis, AxisKind, ErrorModel, Machine, MotionTable};
 use crate::Result;
@@ -283,7 +283,7 @@ impl<'t> ErrorFile<'_, 't> {
                 ),
             ));
         };
-        let positions = doc.numbers_in(pv, "`positions`", -reach, reach, unit)?;
+        let positions = doc.numbers_in(pv, "`positions`", Bounds::within(reach, unit))?;
         if positions.is_empty() {
             return Err(doc.err(
                 pv.span(),
@@ -328,7 +328,11 @@ impl<'t> ErrorFile<'_, 't> {
             let (_, term) = self.term(key, section, &candidates)?;
             let (factor, unit) = self.units.of(term.quantity());
             let limit = self.units.limit(term.quantity());
-            let series = doc.numbers_in(v, &format!("the series `{term}`"), -limit, limit, unit)?;
+            let series = doc.numbers_in(
+                v,
+                &format!("the series `{term}`"),
+                Bounds::within(limit, unit),
+            )?;
             if series.len() != positions.len() {
                 return Err(doc.err(
                     v.span(),
@@ -484,7 +488,7 @@ impl<'t> ErrorFile<'_, 't> {
         let limit = self.units.limit(term.quantity());
         Ok(self
             .doc
-            .number_in(v, &format!("`{term}`"), -limit, limit, unit)?
+            .number_in(v, &format!("`{term}`"), Bounds::within(limit, unit))?
             * factor)
     }
 }

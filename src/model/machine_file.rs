@@ -556,7 +556,7 @@ fn resolution(doc: &Doc, v: &Spanned<DeValue>) -> Result<Resolution> {
     ] {
         if let Some(v) = t.get(key) {
             let [lo, hi] = limits::RESOLUTION;
-            *slot = doc.number_in(v, &format!("resolution `{key}`"), lo, hi, unit)?;
+            *slot = doc.number_in(v, &format!("resolution `{key}`"), Bounds { lo, hi, unit })?;
         }
     }
     Ok(r)
@@ -568,7 +568,7 @@ fn tool(doc: &Doc, v: &Spanned<DeValue>) -> Result<Tool> {
     let mut tool = Tool::default();
     let l = limits::LENGTH_MM;
     if let Some(v) = t.get("length") {
-        tool.length = doc.number_in(v, "tool `length`", -l, l, "mm")?;
+        tool.length = doc.number_in(v, "tool `length`", Bounds::within(l, "mm"))?;
     }
     if let Some(v) = t.get("lengths") {
         let table = doc.table(
@@ -585,7 +585,11 @@ fn tool(doc: &Doc, v: &Spanned<DeValue>) -> Result<Tool> {
                     ),
                 )
             })?;
-            let length = doc.number_in(value, &format!("the length of tool H{h}"), -l, l, "mm")?;
+            let length = doc.number_in(
+                value,
+                &format!("the length of tool H{h}"),
+                Bounds::within(l, "mm"),
+            )?;
             tool.lengths.insert(h, length);
         }
     }
@@ -696,7 +700,7 @@ fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -
         }
         Some(d) => {
             let l = limits::DIRECTION;
-            let dir = doc.vec3_in(d, "`direction`", l, "")?;
+            let dir = doc.vec3_in(d, "`direction`", Bounds::within(l, ""))?;
             if dir.amax() < limits::DIRECTION_MIN {
                 return Err(doc.err(
                     d.span(),
@@ -720,7 +724,7 @@ fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -
         None => None,
         Some(tv) => {
             let what = format!("`travel`, [min, max] in {unit}");
-            let values = doc.numbers_in(tv, "`travel`", -reach, reach, unit)?;
+            let values = doc.numbers_in(tv, "`travel`", Bounds::within(reach, unit))?;
             if values.len() != 2 {
                 return Err(doc.err(
                     tv.span(),
@@ -753,7 +757,11 @@ fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -
                 ));
             }
             match t.get("reference_point") {
-                Some(p) => doc.vec3_in(p, "`reference_point`", limits::LENGTH_MM, "mm")?,
+                Some(p) => doc.vec3_in(
+                    p,
+                    "`reference_point`",
+                    Bounds::within(limits::LENGTH_MM, "mm"),
+                )?,
                 None => Vector3::zeros(),
             }
         }
@@ -768,7 +776,7 @@ fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -
                 ));
             }
             match t.get("point") {
-                Some(p) => doc.vec3_in(p, "`point`", limits::LENGTH_MM, "mm")?,
+                Some(p) => doc.vec3_in(p, "`point`", Bounds::within(limits::LENGTH_MM, "mm"))?,
                 None => {
                     return Err(doc.err(
                         v.span(),
@@ -783,7 +791,7 @@ fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -
     };
 
     let table_offset = match t.get("table_offset") {
-        Some(o) => doc.number_in(o, "`table_offset`", -reach, reach, unit)?,
+        Some(o) => doc.number_in(o, "`table_offset`", Bounds::within(reach, unit))?,
         None => 0.0,
     };
 
@@ -858,6 +866,41 @@ pub(crate) fn describe(v: &DeValue) -> &'static str {
         DeValue::Datetime(_) => "a date-time",
         DeValue::Array(_) => "an array",
         DeValue::Table(_) => "a table",
+    }
+}
+
+/// The documented range of a number of a machine or error file, and its unit (empty for
+/// none), as messages name it.
+#[derive(Clone, Copy)]
+pub(crate) struct Bounds<'u> {
+    pub lo: f64,
+    pub hi: f64,
+    pub unit: &'u str,
+}
+
+impl<'u> Bounds<'u> {
+    /// From −`limit` to `limit`.
+    pub fn within(limit: f64, unit: &'u str) -> Self {
+        Bounds {
+            lo: -limit,
+            hi: limit,
+            unit,
+        }
+    }
+}
+
+impl std::fmt::Display for Bounds<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let unit = if self.unit.is_empty() {
+            String::new()
+        } else {
+            format!(" {}", self.unit)
+        };
+        if self.lo == -self.hi {
+            write!(f, "within ±{}{unit}", shown(self.hi))
+        } else {
+            write!(f, "from {} to {}{unit}", shown(self.lo), shown(self.hi))
+        }
     }
 }
 
@@ -964,27 +1007,10 @@ impl<'t> Doc<'t> {
             .collect()
     }
 
-    /// A finite number from `lo` to `hi` (in `unit`), refused with the range named.
-    pub fn number_in(
-        &self,
-        v: &Spanned<DeValue>,
-        what: &str,
-        lo: f64,
-        hi: f64,
-        unit: &str,
-    ) -> Result<f64> {
+    /// A finite number within `range`, refused with the range named.
+    pub fn number_in(&self, v: &Spanned<DeValue>, what: &str, range: Bounds) -> Result<f64> {
         let x = self.number(v, what)?;
-        if x < lo || x > hi {
-            let unit = if unit.is_empty() {
-                String::new()
-            } else {
-                format!(" {unit}")
-            };
-            let range = if lo == -hi {
-                format!("within ±{}{unit}", shown(hi))
-            } else {
-                format!("from {} to {}{unit}", shown(lo), shown(hi))
-            };
+        if x < range.lo || x > range.hi {
             return Err(self.err(
                 v.span(),
                 format!(
@@ -996,35 +1022,29 @@ impl<'t> Doc<'t> {
         Ok(x)
     }
 
-    /// An array of numbers each within ±`limit` (in `unit`), each with its span.
+    /// An array of numbers each within `range`, each with its span.
     pub fn numbers_in(
         &self,
         v: &Spanned<DeValue>,
         what: &str,
-        lo: f64,
-        hi: f64,
-        unit: &str,
+        range: Bounds,
     ) -> Result<Vec<(f64, Range<usize>)>> {
         self.numbers(v, what)?;
         let array = v.get_ref().as_array().into_iter().flat_map(|a| a.iter());
         array
             .map(|e| {
-                let x = self.number_in(e, &format!("an element of {what}"), lo, hi, unit)?;
-                Ok((x, e.span()))
+                Ok((
+                    self.number_in(e, &format!("an element of {what}"), range)?,
+                    e.span(),
+                ))
             })
             .collect()
     }
 
-    /// [`Doc::vec3`] with each component within ±`limit` (in `unit`).
-    pub fn vec3_in(
-        &self,
-        v: &Spanned<DeValue>,
-        what: &str,
-        limit: f64,
-        unit: &str,
-    ) -> Result<Vector3<f64>> {
+    /// [`Doc::vec3`] with each component within `range`.
+    pub fn vec3_in(&self, v: &Spanned<DeValue>, what: &str, range: Bounds) -> Result<Vector3<f64>> {
         let d = self.vec3(v, what)?;
-        self.numbers_in(v, what, -limit, limit, unit)?;
+        self.numbers_in(v, what, range)?;
         Ok(d)
     }
 
