@@ -256,6 +256,16 @@ impl Error {
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+/// The message a panic carried (`panic!("...")`, a failed `expect`, an overflow), for
+/// reporting it as an internal error where it was caught.
+pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> &str {
+    payload
+        .downcast_ref::<&str>()
+        .copied()
+        .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
+        .unwrap_or("a panic without a message")
+}
+
 /// For pointing a diagnostic at a field of a CSV row: byte offsets of the first `n`
 /// fields of the row starting at `start` (leading spaces skipped, quotes respected);
 /// fewer if the row has fewer. The probe and trace readers share it.

@@ -476,3 +476,98 @@ fn the_stale_check_catches_a_one_digit_change() {
     ]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+#[test]
+fn one_bad_program_never_stops_the_check_of_the_others() {
+    let dir = scratch("bad-one");
+    let digits = "9".repeat(310);
+    // Numbers that overflow to infinity once crashed the whole run (exit 101, no report).
+    let bad = [
+        (
+            "x.nc",
+            format!("G21 G90\nG0 X0 Y0 Z50 A-30 C0\nG1 X{digits} F100\n"),
+        ),
+        (
+            "j.nc",
+            format!("G21 G90\nG0 X0 Y0 Z50 A-30 C0\nG43.5 H1 X1 Y1 Z1 I0 J{digits} K1\n"),
+        ),
+        (
+            "r.nc",
+            format!("G21 G90\nG0 X0 Y0 Z50 A-30 C0\nG2 X10 Y0 R{digits} F100\n"),
+        ),
+    ];
+    let mut args = vec!["--format".to_string(), "json".to_string()];
+    args.push("fixtures/ac_trunnion_tcp.nc".into());
+    for (name, text) in &bad {
+        std::fs::write(dir.join(name), text).unwrap();
+        args.push(dir.join(name).display().to_string());
+    }
+    args.push("fixtures/ac_trunnion_g91.nc".into());
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = check(&args);
+    assert!(!stderr(&out).contains("panicked"), "{}", stderr(&out));
+    let doc = valid_json(&out);
+    // Every program has its entry, in order; the good ones are checked.
+    let programs = doc["programs"].as_array().unwrap();
+    assert_eq!(programs.len(), 5);
+    assert_eq!(programs[0]["status"], "clean");
+    assert_eq!(programs[4]["status"], "clean");
+    // Each bad one is this program's outcome: a finding or unusable, with a message that
+    // names it.
+    for (p, (name, _)) in programs[1..4].iter().zip(&bad) {
+        assert!(p["path"].as_str().unwrap().ends_with(name));
+        match p["status"].as_str().unwrap() {
+            "findings" => assert!(!p["findings"].as_array().unwrap().is_empty()),
+            "unusable" => assert!(p["error"].as_str().unwrap().contains(name), "{p:#}"),
+            other => panic!("{name}: {other}"),
+        }
+    }
+    assert_eq!(
+        out.status.code(),
+        doc["exit_code"].as_i64().map(|c| c as i32)
+    );
+}
+
+#[test]
+fn a_zero_model_reads_no_program_so_each_is_a_finding_unless_allowed() {
+    let dir = scratch("zero");
+    let zero = dir.join("zero.errors.toml");
+    std::fs::write(&zero, "length_unit = \"mm\"\nangle_unit = \"rad\"\n").unwrap();
+    std::fs::write(dir.join("garbage.nc"), b"\x00\xff not a program\n").unwrap();
+    let garbage = dir.join("garbage.nc").display().to_string();
+    let zero = zero.display().to_string();
+    let run = |extra: &[&str]| {
+        let mut args = vec!["check", "-m", M, "-e", &zero];
+        args.extend_from_slice(extra);
+        nccomp(&args)
+    };
+    let out = run(&["--format", "json", DEMO, &garbage]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let doc = valid_json(&out);
+    for p in doc["programs"].as_array().unwrap() {
+        assert_eq!(p["status"], "findings", "{p:#}");
+        let f = &p["findings"][0];
+        assert_eq!(f["kind"], "unread");
+        assert_eq!((&f["line"], &f["column"]), (&1.into(), &1.into()));
+        assert!(
+            f["message"]
+                .as_str()
+                .unwrap()
+                .contains("the error model is zero, so the program was passed through unread"),
+            "{f:#}"
+        );
+    }
+    let out = run(&[&garbage]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stdout(&out).contains("error[unread]: the error model is zero"),
+        "{}",
+        stdout(&out)
+    );
+    // Allowed: clean, and still said.
+    let out = run(&["--allow-unread", DEMO, &garbage]);
+    assert_eq!(out.status.code(), Some(0), "{}", stdout(&out));
+    assert!(stdout(&out).contains(
+        "note: the error model is zero: the program passes unchanged and nothing was checked"
+    ));
+}

@@ -453,17 +453,31 @@ fn machine_travel_min_not_below_max() {
 }
 
 #[test]
-fn machine_resolution_not_positive() {
+fn machine_resolution_outside_its_range() {
     let msg = machine_error(&format!(
         "resolution = {{ linear = 0.0, rotary = 0.001 }}\n{SMALL}"
     ));
     assert_diag(
         &msg,
         "m.toml:1:25",
-        &["resolution `linear` is 0", "expected a positive step"],
+        &[
+            "resolution `linear` is 0.0",
+            "expected a number from 0.000001 to 0.1 mm",
+        ],
     );
     let msg = machine_error(&format!("resolution = {{ rotary = -1 }}\n{SMALL}"));
-    assert_diag(&msg, "m.toml:1:25", &["resolution `rotary`", "positive"]);
+    assert_diag(
+        &msg,
+        "m.toml:1:25",
+        &["resolution `rotary` is -1", "from 0.000001 to 0.1 degrees"],
+    );
+    // Absurdly coarse: every corrected word would be rounded to nothing.
+    let msg = machine_error(&format!("resolution = {{ linear = 1e300 }}\n{SMALL}"));
+    assert_diag(
+        &msg,
+        "m.toml:1:25",
+        &["resolution `linear` is 1e300", "0.1 mm"],
+    );
 }
 
 #[test]
@@ -589,17 +603,18 @@ fn units_convert_to_mm_and_rad() {
         ("mm", "deg", 1.0, std::f64::consts::PI / 180.0),
         ("um", "arcsec", 1e-3, std::f64::consts::PI / 648_000.0),
     ];
+    // Angles within 0.1 rad in every unit (the limit of an angle error).
     for (lu, au, lf, af) in cases {
         let m = errors_ok(&format!(
-            "length_unit = \"{lu}\"\nangle_unit = \"{au}\"\n[squareness]\nEC0Y = 2.5\n\
-             [location.C]\nEX0C = 3\n[motion.C]\npositions = [0, 180]\nEZC = [1, 2]\nECC = [4, 5]\n"
+            "length_unit = \"{lu}\"\nangle_unit = \"{au}\"\n[squareness]\nEC0Y = 0.025\n\
+             [location.C]\nEX0C = 3\n[motion.C]\npositions = [0, 180]\nEZC = [1, 2]\nECC = [0.04, 0.05]\n"
         ));
-        assert!(close(m.axes[y].squareness.z, 2.5 * af), "{au}");
+        assert!(close(m.axes[y].squareness.z, 0.025 * af), "{au}");
         assert!(close(m.axes[c].location_shift.x, 3.0 * lf), "{lu}");
         let t = m.axes[c].motion.as_ref().unwrap();
         assert_eq!(t.positions, [0.0, 180.0], "positions are not error units");
         assert!(close(t.values[2].as_ref().unwrap()[1], 2.0 * lf));
-        assert!(close(t.values[5].as_ref().unwrap()[0], 4.0 * af));
+        assert!(close(t.values[5].as_ref().unwrap()[0], 0.04 * af));
         assert!(t.periodic);
     }
 }

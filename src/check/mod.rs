@@ -16,7 +16,7 @@ pub use expand::expand;
 pub use progress::progress_bar;
 
 use crate::compensate::{Compensator, Extreme, Options, Summary, TRAVEL_LIMIT};
-use crate::diag::{Diagnostic, Error};
+use crate::diag::{Diagnostic, Error, panic_message};
 use crate::model::{ErrorModel, Machine};
 use crate::nc::{self, TokenKind};
 use rayon::prelude::*;
@@ -96,6 +96,9 @@ pub enum FindingKind {
     TipError,
     /// The predicted direction error after compensation is above `--max-angle`.
     DirectionError,
+    /// The program was not read: the error model is zero, so the pass copies it unread
+    /// (a finding unless `--allow-unread`).
+    Unread,
 }
 
 /// A failure at a place in a program.
@@ -150,6 +153,7 @@ impl FindingKind {
             FindingKind::TravelLimit => TRAVEL_LIMIT,
             FindingKind::TipError => "tip_error",
             FindingKind::DirectionError => "direction_error",
+            FindingKind::Unread => "unread",
         }
     }
 }
@@ -235,6 +239,8 @@ pub struct Checker<'m> {
     letters: Vec<u8>,
     thresholds: Thresholds,
     max_refused: usize,
+    /// A program the pass did not read (a zero error model) is clean, not a finding.
+    allow_unread: bool,
 }
 
 impl<'m> Checker<'m> {
@@ -258,7 +264,18 @@ impl<'m> Checker<'m> {
             letters,
             thresholds,
             max_refused,
+            allow_unread: false,
         })
+    }
+
+    /// Whether a program the pass did not read (a zero error model copies every program
+    /// unread) passes as clean (`--allow-unread`) or is a finding (the default: a gate
+    /// must not pass what it did not read).
+    pub fn allow_unread(self, allow: bool) -> Self {
+        Checker {
+            allow_unread: allow,
+            ..self
+        }
     }
 
     pub fn thresholds(&self) -> Thresholds {
@@ -301,6 +318,21 @@ impl<'m> Checker<'m> {
             direction_urad: Peak::new(after_direction, 1e6, None),
         };
         let mut within = true;
+        if summary.zero_model && !self.allow_unread {
+            within = false;
+            findings.push(Finding {
+                kind: FindingKind::Unread,
+                at: (&Diagnostic::at(
+                    path,
+                    src,
+                    0,
+                    "the error model is zero, so the program was passed through unread and \
+                     nothing was checked: expected the machine's real error file (or \
+                     --allow-unread to let unread programs pass)",
+                ))
+                    .into(),
+            });
+        }
         if let (true, Some(line)) = (after.tip_mm.max > t.max_error_mm, after.tip_mm.line) {
             within = false;
             findings.push(self.at_line(
@@ -358,13 +390,23 @@ impl<'m> Checker<'m> {
         }
     }
 
-    /// Check the program in the file at `path` (unusable if it cannot be read).
+    /// Check the program in the file at `path`: unusable if it cannot be read, or if
+    /// nccomp itself fails on it (a panic is caught and reported for this program alone,
+    /// so one bad file never stops the others).
     pub fn file(&self, path: &Path) -> ProgramCheck {
         let name = path.display().to_string();
-        match std::fs::read(path) {
+        let check = || match std::fs::read(path) {
             Ok(src) => self.program(&src, &name),
             Err(e) => ProgramCheck::unusable(&name, &Error::io(path, e)),
-        }
+        };
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(check)).unwrap_or_else(|panic| {
+            let message = format!(
+                "{name}: nccomp failed on this program ({}): an internal error, please report \
+                 it with the program; the other programs were checked",
+                panic_message(&*panic)
+            );
+            ProgramCheck::unusable(&name, &Error::Usage(message))
+        })
     }
 
     /// Check every file, in parallel (rayon's pool: `RAYON_NUM_THREADS` threads, one per
@@ -489,6 +531,7 @@ mod tests {
             FindingKind::TravelLimit,
             FindingKind::TipError,
             FindingKind::DirectionError,
+            FindingKind::Unread,
         ] {
             assert_eq!(serde_json::to_value(kind).unwrap(), kind.code());
         }
@@ -521,11 +564,19 @@ mod tests {
     }
 
     #[test]
-    fn a_zero_model_checks_nothing_and_says_so() {
+    fn a_zero_model_reads_nothing_so_each_program_is_a_finding_unless_allowed() {
         let machine = machine_file::load(&fixture("ac_trunnion.machine.toml")).unwrap();
         let zero = ErrorModel::zero(&machine);
         let checker =
             Checker::new(&machine, &zero, Options::default(), Thresholds::default()).unwrap();
+        let check = checker.program(b"G41 D1 X1\n", "a.nc");
+        assert_eq!(check.status, Status::Findings, "{check:#?}");
+        assert_eq!(check.findings[0].kind, FindingKind::Unread);
+        assert_eq!(
+            (check.findings[0].at.line, check.findings[0].at.column),
+            (1, 1)
+        );
+        let checker = checker.allow_unread(true);
         let check = checker.program(b"G41 D1 X1\n", "a.nc");
         assert_eq!(check.status, Status::Clean);
         assert!(check.notes[0].contains("nothing was checked"), "{check:#?}");

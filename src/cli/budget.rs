@@ -1,7 +1,7 @@
 //! `nccomp sensitivity` and `nccomp tolerance`: the error budget commands, and the machine,
 //! budget file and poses they both set up.
 
-use super::files::{print, write_atomically};
+use super::files::{destinations, print, write_all};
 use crate::budget::study::{self, StudyOptions};
 use crate::budget::{self, Poses, Probe, Term, budget_file, ranking, report, tolerance};
 use crate::kinematics::Kinematics;
@@ -169,6 +169,13 @@ fn setup(common: &BudgetCommon, budget: Option<&Path>) -> crate::Result<Setup> {
 
 pub(super) fn sensitivity(args: &SensitivityArgs) -> crate::Result<()> {
     let usage = |m: String| crate::Error::Usage(m);
+    let [svg_to] = destinations(
+        &[
+            ("the machine file", Some(&args.common.machine)),
+            ("the budget file", args.budget.as_deref()),
+        ],
+        [("--svg", args.svg.as_deref())],
+    )?;
     let s = setup(&args.common, args.budget.as_deref())?;
     for (name, v) in [
         ("--unit-length", args.unit_length),
@@ -220,11 +227,11 @@ pub(super) fn sensitivity(args: &SensitivityArgs) -> crate::Result<()> {
         }
         None => None,
     };
-    if let (Some(path), Some(r)) = (&args.svg, &ranking) {
+    if let (Some(to), Some(r)) = (&svg_to, &ranking) {
         let name = s.machine.name.clone().unwrap_or_else(|| "machine".into());
         let svg = report::ranking_svg(r, &format!("Key errors of {name}"))
             .map_err(|m| usage(format!("cannot draw the ranking: {m}")))?;
-        write_atomically(path, svg.as_bytes())?;
+        write_all(&[(to, svg.as_bytes())])?;
     }
     let text = match args.common.format {
         Format::Human => {

@@ -26,6 +26,10 @@ pub(super) struct CheckArgs {
     /// Human format: leave clean programs out of the report (the totals still count them).
     #[arg(long, short = 'q')]
     quiet: bool,
+    /// Let programs that were not read pass as clean. With a zero error model the pass
+    /// copies programs unread, and each is a finding (`unread`) by default.
+    #[arg(long)]
+    allow_unread: bool,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -38,10 +42,16 @@ pub(super) fn check(args: &CheckArgs) -> crate::Result<Status> {
     let thresholds = Thresholds::new(args.max_error, args.max_angle)?;
     let machine = machine_file::load(&args.pass.machine)?;
     let errors = error_file::load(&args.pass.errors, &machine)?;
-    let checker = Checker::new(&machine, &errors, args.pass.options()?, thresholds)?;
+    let checker = Checker::new(&machine, &errors, args.pass.options()?, thresholds)?
+        .allow_unread(args.allow_unread);
     let paths = crate::check::expand(&args.programs)?;
     let bar = crate::check::progress_bar(paths.len());
+    // A panic on one program is caught and reported in that program's entry: the
+    // default hook's "panicked at" on standard error would only repeat it.
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
     let programs = checker.files(&paths, &|| bar.inc(1));
+    std::panic::set_hook(hook);
     bar.finish_and_clear();
     let run = crate::check::Run {
         machine: args.pass.machine.display().to_string(),

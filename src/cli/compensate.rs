@@ -1,11 +1,11 @@
 //! `nccomp compensate`: its options, and the compensation pass's options it shares with
 //! `check`.
 
-use super::files::{is_std, print, read_file, write_atomically_with};
+use super::files::{commit, destinations, eprint, is_std, print, read_file};
 use crate::check::Status;
 use crate::compensate::{Compensator, Options};
 use crate::model::{error_file, machine_file};
-use std::io::{Read, Seek, Write};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -85,6 +85,16 @@ fn path_tolerance(text: &str) -> Result<PathLimit, String> {
 }
 
 pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
+    let input = args.input.as_deref().unwrap_or(Path::new("-"));
+    let output = (!args.check).then(|| args.output.as_deref().unwrap_or(Path::new("-")));
+    let [output] = destinations(
+        &[
+            ("the program", Some(input)),
+            ("the machine file", Some(&args.pass.machine)),
+            ("the error file", Some(&args.pass.errors)),
+        ],
+        [("-o", output)],
+    )?;
     let machine = machine_file::load(&args.pass.machine)?;
     let errors = error_file::load(&args.pass.errors, &machine)?;
     let options = Options {
@@ -93,22 +103,22 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
     };
     let comp = Compensator::new(&machine, &errors, options)?;
     // The program streams through in bounded memory, to a temporary file that takes the
-    // output's place only when every block has been compensated.
+    // output's place only when every block has been compensated (to standard output, an
+    // unnamed one copied out at the end: a failed run writes nothing there either).
     let (input, name): (Box<dyn Read>, String) = if is_std(&args.input) {
         use std::io::IsTerminal;
         if std::io::stdin().is_terminal() {
-            eprintln!(
-                "nccomp: reading the program from standard input (end with Ctrl-D; see --help)"
-            );
+            eprint(
+                "nccomp: reading the program from standard input (end with Ctrl-D; see --help)\n",
+            )?;
         }
         (Box::new(std::io::stdin().lock()), "<stdin>".to_string())
     } else {
-        let path = args.input.as_deref().unwrap_or(Path::new("-"));
-        let file = std::fs::File::open(path).map_err(|e| crate::Error::io(path, e))?;
-        (Box::new(file), path.display().to_string())
+        let file = std::fs::File::open(input).map_err(|e| crate::Error::io(input, e))?;
+        (Box::new(file), input.display().to_string())
     };
     let mut status = Status::Clean;
-    let summary = match (&args.expected, &args.output) {
+    let summary = match (&args.expected, output) {
         (Some(expected), _) => {
             let mut out = Vec::new();
             let summary = comp.run_stream(input, &name, &mut out, "<memory>")?;
@@ -121,27 +131,21 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
             }
             summary
         }
-        (None, Some(path)) if !is_std(&args.output) => write_atomically_with(path, |file| {
-            comp.run_stream(input, &name, file, &path.display().to_string())
-        })?,
-        _ => {
-            // Standard output gets nothing from a failed run either: the program is
-            // spooled to an unnamed temporary file and copied out at the end.
-            let spool_error = |e| crate::Error::io(Path::new("<temporary file>"), e);
-            let mut spool = tempfile::tempfile().map_err(spool_error)?;
-            let summary = comp.run_stream(input, &name, &mut spool, "<temporary file>")?;
-            let mut stdout = std::io::stdout().lock();
-            spool
-                .seek(std::io::SeekFrom::Start(0))
-                .map_err(spool_error)?;
-            std::io::copy(&mut spool, &mut stdout)
-                .and_then(|_| stdout.flush())
-                .map_err(|e| crate::Error::io(Path::new("<stdout>"), e))?;
+        (None, Some(output)) => {
+            let mut staged = output.stage()?;
+            let output_name = staged.name();
+            let summary = comp.run_stream(input, &name, staged.file(), &output_name)?;
+            commit(vec![staged])?;
             summary
+        }
+        (None, None) => {
+            return Err(crate::Error::Usage(
+                "--check needs --expected OUTPUT, the committed program to compare".into(),
+            ));
         }
     };
     if !args.quiet {
-        eprintln!("{name}: {summary}");
+        eprint(&format!("{name}: {summary}\n"))?;
     }
     Ok(status)
 }

@@ -1,6 +1,6 @@
 //! `nccomp contour`: the contour error of a program from a trace of the machine's axes.
 
-use super::files::{is_std, print, read_file, write_atomically};
+use super::files::{Std, destinations, read_file, write_all};
 use crate::model::machine_file;
 use std::path::PathBuf;
 
@@ -59,6 +59,17 @@ pub(super) fn contour(args: &ContourArgs) -> crate::Result<()> {
             )));
         }
     }
+    let [plot_to, csv_to] = destinations(
+        &[
+            ("the machine file", Some(&args.machine)),
+            ("the program", Some(&args.program)),
+            ("the trace", Some(&args.trace)),
+        ],
+        [
+            ("--plot", args.plot.as_deref()),
+            ("-o", args.output.as_deref()),
+        ],
+    )?;
     let machine = machine_file::load(&args.machine)?;
     let (program, program_name) = read_file(&args.program)?;
     let (trace, trace_name) = read_file(&args.trace)?;
@@ -80,27 +91,28 @@ pub(super) fn contour(args: &ContourArgs) -> crate::Result<()> {
         .name
         .clone()
         .unwrap_or(args.machine.display().to_string());
-    if let Some(path) = &args.plot {
-        let title = format!("Contour error of {program_name} on {machine_name} ({trace_name})");
-        let svg = plot::svg(&a, &title).map_err(crate::Error::Usage)?;
-        write_atomically(path, svg.as_bytes())?;
-    }
-    let csv_to_stdout = args.output.is_some() && is_std(&args.output);
-    if let Some(path) = &args.output {
-        let csv = report::points_csv(&a, args.rapids);
-        if csv_to_stdout {
-            print(&csv)?;
-        } else {
-            write_atomically(path, csv.as_bytes())?;
+    // The plot and the points, all or nothing; then the summary.
+    let svg = match &plot_to {
+        Some(_) => {
+            let title = format!("Contour error of {program_name} on {machine_name} ({trace_name})");
+            Some(plot::svg(&a, &title).map_err(crate::Error::Usage)?)
         }
+        None => None,
+    };
+    let csv = csv_to.as_ref().map(|_| report::points_csv(&a, args.rapids));
+    let mut outputs: Vec<(&_, &[u8])> = Vec::new();
+    if let (Some(to), Some(svg)) = (&plot_to, &svg) {
+        outputs.push((to, svg.as_bytes()));
     }
+    if let (Some(to), Some(csv)) = (&csv_to, &csv) {
+        outputs.push((to, csv.as_bytes()));
+    }
+    write_all(&outputs)?;
     if !args.quiet {
         let text = report::summary_text(&a, &program_name, &trace_name, &machine_name);
-        if csv_to_stdout {
-            eprint!("{text}");
-        } else {
-            print(&text)?;
-        }
+        let csv_to_stdout = csv_to.as_ref().is_some_and(|d| d.is_stdout());
+        let to = if csv_to_stdout { Std::Err } else { Std::Out };
+        to.write(text.as_bytes())?;
     }
     Ok(())
 }

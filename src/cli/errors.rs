@@ -1,8 +1,9 @@
 //! `nccomp errors`: converting calibration files from the field into error files.
 
-use super::files::{is_std, print, read_file, write_atomically};
+use super::files::{destinations, eprint, read_file, write_all};
 use crate::model::machine_file;
 use clap::Subcommand;
+use std::path::Path;
 use std::path::PathBuf;
 
 #[derive(Subcommand)]
@@ -48,6 +49,13 @@ pub(super) struct ConvertArgs {
 
 pub(super) fn convert(args: &ConvertArgs) -> crate::Result<()> {
     use crate::import::{self, Format};
+    let [output] = destinations(
+        &[
+            ("the calibration file", Some(&args.input)),
+            ("the machine file", args.machine.as_deref()),
+        ],
+        [("-o", Some(args.output.as_deref().unwrap_or(Path::new("-"))))],
+    )?;
     let (bytes, name) = read_file(&args.input)?;
     let machine = args
         .machine
@@ -63,13 +71,11 @@ pub(super) fn convert(args: &ConvertArgs) -> crate::Result<()> {
     };
     let text = String::from_utf8_lossy(&bytes);
     let converted = import::convert(&text, &name, machine.as_ref(), &options)?;
-    match &args.output {
-        Some(path) if !is_std(&args.output) => write_atomically(path, converted.toml.as_bytes())?,
-        _ => print(&converted.toml)?,
+    if let Some(output) = &output {
+        write_all(&[(output, converted.toml.as_bytes())])?;
     }
     for note in &converted.notes {
-        eprintln!("note: {note}");
+        eprint(&format!("note: {note}\n"))?;
     }
-    eprintln!("{}", converted.summary);
-    Ok(())
+    eprint(&format!("{}\n", converted.summary))
 }

@@ -1,7 +1,7 @@
 //! `nccomp identify` and `nccomp simulate-cut`: errors from a measured feature workpiece,
 //! and the simulator that produces such measurements.
 
-use super::files::{print, write_atomically};
+use super::files::{destinations, print, write_all};
 use std::path::PathBuf;
 
 /// Inputs the identification commands share.
@@ -68,10 +68,20 @@ pub(super) struct SimulateCutArgs {
 pub(super) fn identify(args: &IdentifyArgs) -> crate::Result<()> {
     use crate::identify::files::{self, Workpiece};
     let w = &args.work;
+    let [output] = destinations(
+        &[
+            ("the machine file", Some(&w.machine)),
+            ("the plan", Some(&w.plan)),
+            ("the program", Some(&w.program)),
+            ("the on-machine measurements", Some(&args.on_machine)),
+            ("the CMM measurements", Some(&args.cmm)),
+        ],
+        [("-o", args.output.as_deref())],
+    )?;
     let work = Workpiece::load(&w.machine, &w.plan, &w.program)?;
     let id = files::identify(&work, &args.on_machine, &args.cmm, args.part)?;
-    if let Some(path) = &args.output {
-        write_atomically(path, id.errors.as_bytes())?;
+    if let Some(output) = &output {
+        write_all(&[(output, id.errors.as_bytes())])?;
     }
     print(&id.table)
 }
@@ -79,6 +89,24 @@ pub(super) fn identify(args: &IdentifyArgs) -> crate::Result<()> {
 pub(super) fn simulate_cut(args: &SimulateCutArgs) -> crate::Result<()> {
     use crate::identify::files::{self, Workpiece};
     let w = &args.work;
+    let [Some(on_machine), Some(cmm)] = destinations(
+        &[
+            ("the machine file", Some(&w.machine)),
+            ("the plan", Some(&w.plan)),
+            ("the program", Some(&w.program)),
+            ("the error file", Some(&args.errors)),
+            ("the dynamic error file", args.dynamic.as_deref()),
+        ],
+        [
+            ("--on-machine", Some(&args.on_machine)),
+            ("--cmm", Some(&args.cmm)),
+        ],
+    )?
+    else {
+        return Err(crate::Error::Usage(
+            "simulate-cut writes --on-machine and --cmm: give both".into(),
+        ));
+    };
     let work = Workpiece::load(&w.machine, &w.plan, &w.program)?;
     let sim = files::simulate_cut(
         &work,
@@ -87,7 +115,9 @@ pub(super) fn simulate_cut(args: &SimulateCutArgs) -> crate::Result<()> {
         args.noise,
         args.seed,
     )?;
-    write_atomically(&args.on_machine, sim.on_machine.as_bytes())?;
-    write_atomically(&args.cmm, sim.cmm.as_bytes())?;
+    write_all(&[
+        (&on_machine, sim.on_machine.as_bytes()),
+        (&cmm, sim.cmm.as_bytes()),
+    ])?;
     print(&sim.summary)
 }

@@ -12,13 +12,14 @@ mod probe;
 mod report;
 
 use crate::check::Status;
-use crate::diag::use_color;
+use crate::diag::{panic_message, use_color};
 use budget::{SensitivityArgs, ToleranceArgs};
 use check::CheckArgs;
 use clap::{Parser, Subcommand};
 use compensate::CompensateArgs;
 use contour::ContourArgs;
 use errors::ErrorsCommand;
+use files::Std;
 use identify::{IdentifyArgs, SimulateCutArgs};
 use probe::ProbeArgs;
 use report::ReportArgs;
@@ -153,8 +154,44 @@ Outputs are written only on success, and atomically."
 }
 
 /// Run the command `cli` names and print its error, if any: the process's exit code.
+///
+/// With standard output or standard error closed (`>&-`) nothing is done: what nccomp
+/// writes there would be lost without a word. A panic (a bug) is an error like any other,
+/// exit code 2, and a command's temporary files are removed as it unwinds.
 pub fn run(cli: Cli) -> ExitCode {
-    let result = match cli.command {
+    if Std::Err.is_closed() {
+        return ExitCode::from(EXIT_BAD_INPUT);
+    }
+    let result = if Std::Out.is_closed() {
+        Err(crate::Error::Usage(
+            "standard output is closed (`>&-`): nccomp writes programs and reports there; \
+             expected it open (redirect it to /dev/null to discard what goes there)"
+                .into(),
+        ))
+    } else {
+        files::ignore_file_size_signal();
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| dispatch(cli))).unwrap_or_else(
+            |panic| {
+                Err(crate::Error::Usage(format!(
+                    "nccomp failed ({}): an internal error, please report it with the inputs",
+                    panic_message(&*panic)
+                )))
+            },
+        )
+    };
+    match result {
+        Ok(status) => ExitCode::from(status.exit_code()),
+        Err(e) => {
+            // Nothing is left to tell if standard error itself cannot be written.
+            let _ = Std::Err
+                .write(format!("{}\n", e.render_styled(use_color(&std::io::stderr()))).as_bytes());
+            ExitCode::from(EXIT_BAD_INPUT)
+        }
+    }
+}
+
+fn dispatch(cli: Cli) -> crate::Result<Status> {
+    match cli.command {
         Command::Compensate(args) => compensate::compensate(&args),
         Command::Check(args) => check::check(&args),
         Command::Sensitivity(args) => budget::sensitivity(&args).map(|()| Status::Clean),
@@ -167,12 +204,5 @@ pub fn run(cli: Cli) -> ExitCode {
         Command::Identify(args) => identify::identify(&args).map(|()| Status::Clean),
         Command::SimulateCut(args) => identify::simulate_cut(&args).map(|()| Status::Clean),
         Command::Contour(args) => contour::contour(&args).map(|()| Status::Clean),
-    };
-    match result {
-        Ok(status) => ExitCode::from(status.exit_code()),
-        Err(e) => {
-            eprintln!("{}", e.render_styled(use_color(&std::io::stderr())));
-            ExitCode::from(EXIT_BAD_INPUT)
-        }
     }
 }

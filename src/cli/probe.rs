@@ -1,9 +1,9 @@
 //! `nccomp probe`: probing speeds per direction, and the probing program rewritten with
 //! them.
 
-use super::files::{is_std, read_file, write_atomically};
+use super::files::{Std, destinations, is_std, read_file, write_all};
 use crate::model::machine_file;
-use std::io::{Read, Write};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -148,6 +148,20 @@ pub(super) fn probe(args: &ProbeArgs) -> crate::Result<()> {
                 .into(),
         ));
     }
+    // The rewritten program goes to -o, or to standard output.
+    let program_output = args
+        .input
+        .as_ref()
+        .map(|_| args.output.as_deref().unwrap_or(Path::new("-")));
+    let [plot_to, program_to] = destinations(
+        &[
+            ("the ring-gauge data", args.ring.as_deref()),
+            ("the direction map", args.map.as_deref()),
+            ("the machine file", args.machine.as_deref()),
+            ("the probing program", args.input.as_deref()),
+        ],
+        [("--plot", args.plot.as_deref()), ("-o", program_output)],
+    )?;
     // τ.
     let tau = match (&args.ring, args.tau) {
         (Some(path), _) => {
@@ -266,39 +280,31 @@ pub(super) fn probe(args: &ProbeArgs) -> crate::Result<()> {
             program_out = Some(out);
         }
     }
-    // Outputs: the plot and the program, each atomically; then the report.
-    if let (Some(path), Some(svg)) = (&args.plot, &svg) {
-        write_atomically(path, svg.as_bytes())?;
+    // Outputs: the plot and the program, all or nothing; then the report.
+    let mut outputs: Vec<(&_, &[u8])> = Vec::new();
+    if let (Some(to), Some(svg)) = (&plot_to, &svg) {
+        outputs.push((to, svg.as_bytes()));
     }
-    let program_to_stdout = program_out.is_some() && is_std(&args.output);
-    if let Some(out) = &program_out {
-        if program_to_stdout {
-            let mut stdout = std::io::stdout().lock();
-            stdout
-                .write_all(out)
-                .and_then(|()| stdout.flush())
-                .map_err(|e| crate::Error::io(Path::new("<stdout>"), e))?;
-        } else if let Some(path) = &args.output {
-            write_atomically(path, out)?;
-        }
+    if let (Some(to), Some(out)) = (&program_to, &program_out) {
+        outputs.push((to, out));
     }
+    write_all(&outputs)?;
     if args.quiet {
         return Ok(());
     }
+    let program_to_stdout = program_to.as_ref().is_some_and(|d| d.is_stdout());
     let (main_text, side_text) = match (args.format, csv_report) {
         (FormatArg::Csv, Some(csv)) => (csv, Some(text_report)),
         _ => (text_report, None),
     };
-    let print = |to_stderr: bool, s: &str| {
-        if to_stderr {
-            eprint!("{s}");
-        } else {
-            print!("{s}");
-        }
+    let main = if program_to_stdout {
+        Std::Err
+    } else {
+        Std::Out
     };
-    print(program_to_stdout, &main_text);
+    main.write(main_text.as_bytes())?;
     if let Some(side) = side_text {
-        eprint!("{side}");
+        Std::Err.write(side.as_bytes())?;
     }
     Ok(())
 }

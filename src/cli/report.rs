@@ -1,6 +1,6 @@
 //! `nccomp report`: the HTML report on one program.
 
-use super::files::{read_file, write_atomically};
+use super::files::{destinations, read_file, write_all};
 use crate::compensate::Options;
 use crate::model::{error_file, machine_file};
 use std::path::PathBuf;
@@ -36,6 +36,17 @@ pub(super) struct ReportArgs {
 
 pub(super) fn report(args: &ReportArgs) -> crate::Result<()> {
     use crate::report;
+    let [Some(output)] = destinations(
+        &[
+            ("the machine file", Some(&args.machine)),
+            ("the error file", Some(&args.errors)),
+            ("the program", Some(&args.input)),
+        ],
+        [("-o", Some(&args.output))],
+    )?
+    else {
+        return Err(crate::Error::Usage("report needs -o REPORT.html".into()));
+    };
     let machine = machine_file::load(&args.machine)?;
     let errors = error_file::load(&args.errors, &machine)?;
     let (src, name) = read_file(&args.input)?;
@@ -55,5 +66,5 @@ pub(super) fn report(args: &ReportArgs) -> crate::Result<()> {
     };
     let r = report::build(&machine, &errors, &src, names, &options)?;
     let html = r.html().map_err(crate::Error::Usage)?;
-    write_atomically(&args.output, html.as_bytes())
+    write_all(&[(&output, html.as_bytes())])
 }

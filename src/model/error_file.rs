@@ -20,10 +20,11 @@
 //! at its place in the file, never a silent zero. Missing terms are zero, so a file with
 //! nothing but its units is the zero model.
 
-use super::machine_file::Doc;
+use super::limits;
+use super::machine_file::{Bounds, Doc};
 use super::terms::{self, Quantity, TermName, and_list, or_list, suggest};
 use super::{Axis, AxisKind, ErrorModel, Machine, MotionTable};
-use crate::{Error, Result};
+use crate::Result;
 use std::borrow::Cow;
 use std::path::Path;
 use toml::Spanned;
@@ -31,7 +32,7 @@ use toml::de::{DeTable, DeValue};
 
 /// Read and check an error file for `machine`.
 pub fn load(path: &Path, machine: &Machine) -> Result<ErrorModel> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = super::read_text(path, "error file")?;
     parse(&text, &path.display().to_string(), machine)
 }
 
@@ -160,6 +161,15 @@ impl Units {
         Ok(units)
     }
 
+    /// The largest error of this quantity, in the file's unit ([`limits::ERROR_LENGTH_MM`],
+    /// [`limits::ERROR_ANGLE_RAD`]).
+    pub(crate) fn limit(&self, q: Quantity) -> f64 {
+        match q {
+            Quantity::Length => limits::ERROR_LENGTH_MM / self.length,
+            Quantity::Angle => limits::ERROR_ANGLE_RAD / self.angle,
+        }
+    }
+
     /// The factor to mm or rad for a term of this quantity, and the file's unit name.
     pub(crate) fn of(&self, q: Quantity) -> (f64, &str) {
         match q {
@@ -259,9 +269,9 @@ impl<'t> ErrorFile<'_, 't> {
             value,
             &format!("{section}, a table with `positions` and error-motion series"),
         )?;
-        let unit = match axis.kind {
-            AxisKind::Linear => "mm",
-            AxisKind::Rotary => "degrees",
+        let (unit, reach) = match axis.kind {
+            AxisKind::Linear => ("mm", limits::LENGTH_MM),
+            AxisKind::Rotary => ("degrees", limits::ANGLE_DEG),
         };
         let Some(pv) = table.get("positions") else {
             return Err(doc.err(
@@ -273,7 +283,7 @@ impl<'t> ErrorFile<'_, 't> {
                 ),
             ));
         };
-        let positions = doc.numbers(pv, &format!("`positions` ({unit})"))?;
+        let positions = doc.numbers_in(pv, "`positions`", Bounds::within(reach, unit))?;
         if positions.is_empty() {
             return Err(doc.err(
                 pv.span(),
@@ -317,7 +327,12 @@ impl<'t> ErrorFile<'_, 't> {
             }
             let (_, term) = self.term(key, section, &candidates)?;
             let (factor, unit) = self.units.of(term.quantity());
-            let series = doc.numbers(v, &format!("the series `{term}` ({unit})"))?;
+            let limit = self.units.limit(term.quantity());
+            let series = doc.numbers_in(
+                v,
+                &format!("the series `{term}`"),
+                Bounds::within(limit, unit),
+            )?;
             if series.len() != positions.len() {
                 return Err(doc.err(
                     v.span(),
@@ -470,6 +485,10 @@ impl<'t> ErrorFile<'_, 't> {
                 ),
             ));
         }
-        Ok(self.doc.number(v, &format!("`{term}` ({unit})"))? * factor)
+        let limit = self.units.limit(term.quantity());
+        Ok(self
+            .doc
+            .number_in(v, &format!("`{term}`"), Bounds::within(limit, unit))?
+            * factor)
     }
 }

@@ -28,6 +28,7 @@
 //!
 //! Every problem is reported at its place in the file (`path:line:col: message`).
 
+use super::limits::{self, shown};
 use super::terms::{is_axis_name, or_list, suggest};
 use super::{Axis, AxisKind, Chain, Lathe, Machine, Resolution, Tool};
 use crate::program::{self, CodeName, MachineCodes};
@@ -43,7 +44,7 @@ const AXIS_WORDS: &str = "XYZABCUVW";
 
 /// Read and check a machine file.
 pub fn load(path: &Path) -> Result<Machine> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = super::read_text(path, "machine file")?;
     parse(&text, &path.display().to_string())
 }
 
@@ -235,6 +236,17 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         }
     }
 
+    for chain in &tool_chains {
+        geometry(
+            &doc,
+            &axes,
+            &workpiece_chain,
+            chain,
+            &place,
+            tool_chains.len() > 1,
+        )?;
+    }
+
     let lathe = match root.get("lathe") {
         Some(v) => Some(lathe(&doc, v, &axes, &workpiece_chain, &tool_chains)?),
         None => None,
@@ -255,6 +267,101 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         lathe,
         codes,
     })
+}
+
+/// Refuse a machine that cannot set the tool's pose with the workpiece chain and `chain`:
+/// two rotary axes that set the tool direction (the only two, or all of them) parallel or
+/// within [`limits::AXIS_ANGLE_DEG`] of it; two linear axes (the only two) parallel, or
+/// three (the only three) in one plane, within the same angle. The message points at the
+/// axis in its chain that makes the machine degenerate.
+fn geometry(
+    doc: &Doc,
+    axes: &[Axis],
+    workpiece_chain: &[usize],
+    chain: &Chain,
+    place: &[Range<usize>],
+    several: bool,
+) -> Result<()> {
+    let min = limits::AXIS_ANGLE_DEG.to_radians().sin();
+    let of = |kind| -> Vec<usize> {
+        workpiece_chain
+            .iter()
+            .chain(&chain.axes)
+            .copied()
+            .filter(|&i| axes[i].kind == kind)
+            .collect()
+    };
+    let with = if several {
+        format!(" (with tool chain `{}`)", chain.name)
+    } else {
+        String::new()
+    };
+    let angle = |i: usize, j: usize| {
+        let c = axes[i].direction.dot(&axes[j].direction).abs().min(1.0);
+        c.acos().to_degrees()
+    };
+    let sine = |i: usize, j: usize| axes[i].direction.cross(&axes[j].direction).norm();
+    let rotary = of(AxisKind::Rotary);
+    if rotary.len() >= 2 {
+        let pairs = || {
+            rotary
+                .iter()
+                .enumerate()
+                .flat_map(|(k, &i)| rotary[k + 1..].iter().map(move |&j| (i, j)))
+        };
+        if let Some((i, j)) = pairs().next()
+            && pairs().all(|(i, j)| sine(i, j) < min)
+        {
+            return Err(doc.err(
+                place[j].clone(),
+                format!(
+                    "rotary axes {} and {} are {}° from parallel{with}: the tool direction needs \
+                     two rotary axes that are not parallel; expected their directions at least \
+                     {}° apart",
+                    axes[i].name,
+                    axes[j].name,
+                    shown(angle(i, j)),
+                    shown(limits::AXIS_ANGLE_DEG)
+                ),
+            ));
+        }
+    }
+    let linear = of(AxisKind::Linear);
+    match linear[..] {
+        [i, j] if sine(i, j) < min => Err(doc.err(
+            place[j].clone(),
+            format!(
+                "linear axes {} and {} are {}° from parallel{with}: they move the tool along one \
+                 line; expected their directions at least {}° apart",
+                axes[i].name,
+                axes[j].name,
+                shown(angle(i, j)),
+                shown(limits::AXIS_ANGLE_DEG)
+            ),
+        )),
+        [i, j, k]
+            if axes[i]
+                .direction
+                .cross(&axes[j].direction)
+                .dot(&axes[k].direction)
+                .abs()
+                < min =>
+        {
+            Err(doc.err(
+                place[k].clone(),
+                format!(
+                    "linear axes {}, {} and {} lie in one plane{with} (within {}°): they cannot \
+                     move the tool in three directions; expected three directions that span \
+                     space",
+                    axes[i].name,
+                    axes[j].name,
+                    axes[k].name,
+                    shown(limits::AXIS_ANGLE_DEG)
+                ),
+            ))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// `[codes]`: the machine's own G and M codes, each in one list, none of nccomp's own.
@@ -448,17 +555,8 @@ fn resolution(doc: &Doc, v: &Spanned<DeValue>) -> Result<Resolution> {
         ("rotary", &mut r.rotary, "degrees"),
     ] {
         if let Some(v) = t.get(key) {
-            let x = doc.number(v, &format!("resolution `{key}`"))?;
-            if x <= 0.0 {
-                return Err(doc.err(
-                    v.span(),
-                    format!(
-                        "resolution `{key}` is {x}: expected a positive step in {unit}, such \
-                         as 0.0001"
-                    ),
-                ));
-            }
-            *slot = x;
+            let [lo, hi] = limits::RESOLUTION;
+            *slot = doc.number_in(v, &format!("resolution `{key}`"), Bounds { lo, hi, unit })?;
         }
     }
     Ok(r)
@@ -468,8 +566,9 @@ fn tool(doc: &Doc, v: &Spanned<DeValue>) -> Result<Tool> {
     let t = doc.table(v, "[tool], a table with `length` and `lengths`")?;
     doc.check_keys(t, &["length", "lengths"], "[tool]")?;
     let mut tool = Tool::default();
+    let l = limits::LENGTH_MM;
     if let Some(v) = t.get("length") {
-        tool.length = doc.number(v, "tool `length` (mm)")?;
+        tool.length = doc.number_in(v, "tool `length`", Bounds::within(l, "mm"))?;
     }
     if let Some(v) = t.get("lengths") {
         let table = doc.table(
@@ -486,7 +585,11 @@ fn tool(doc: &Doc, v: &Spanned<DeValue>) -> Result<Tool> {
                     ),
                 )
             })?;
-            let length = doc.number(value, &format!("the length of tool H{h} (mm)"))?;
+            let length = doc.number_in(
+                value,
+                &format!("the length of tool H{h}"),
+                Bounds::within(l, "mm"),
+            )?;
             tool.lengths.insert(h, length);
         }
     }
@@ -596,28 +699,32 @@ fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -
             ));
         }
         Some(d) => {
-            let dir = doc.vec3(d, "`direction`")?;
-            let n = dir.norm();
-            if n == 0.0 || !n.is_finite() {
+            let l = limits::DIRECTION;
+            let dir = doc.vec3_in(d, "`direction`", Bounds::within(l, ""))?;
+            if dir.amax() < limits::DIRECTION_MIN {
                 return Err(doc.err(
                     d.span(),
-                    "`direction` is the zero vector: expected a non-zero direction such as \
-                     [1, 0, 0]",
+                    format!(
+                        "`direction` is the zero vector (no component reaches {}): expected a \
+                         non-zero direction such as [1, 0, 0]",
+                        shown(limits::DIRECTION_MIN)
+                    ),
                 ));
             }
-            dir / n
+            dir.normalize()
         }
+    };
+    // Positions along the axis: mm, or degrees.
+    let (unit, reach) = match kind {
+        AxisKind::Linear => ("mm", limits::LENGTH_MM),
+        AxisKind::Rotary => ("degrees", limits::ANGLE_DEG),
     };
 
     let travel = match t.get("travel") {
         None => None,
         Some(tv) => {
-            let unit = match kind {
-                AxisKind::Linear => "mm",
-                AxisKind::Rotary => "degrees",
-            };
             let what = format!("`travel`, [min, max] in {unit}");
-            let values = doc.numbers(tv, &what)?;
+            let values = doc.numbers_in(tv, "`travel`", Bounds::within(reach, unit))?;
             if values.len() != 2 {
                 return Err(doc.err(
                     tv.span(),
@@ -650,7 +757,11 @@ fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -
                 ));
             }
             match t.get("reference_point") {
-                Some(p) => doc.vec3(p, "`reference_point`")?,
+                Some(p) => doc.vec3_in(
+                    p,
+                    "`reference_point`",
+                    Bounds::within(limits::LENGTH_MM, "mm"),
+                )?,
                 None => Vector3::zeros(),
             }
         }
@@ -665,7 +776,7 @@ fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -
                 ));
             }
             match t.get("point") {
-                Some(p) => doc.vec3(p, "`point`")?,
+                Some(p) => doc.vec3_in(p, "`point`", Bounds::within(limits::LENGTH_MM, "mm"))?,
                 None => {
                     return Err(doc.err(
                         v.span(),
@@ -680,7 +791,7 @@ fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -
     };
 
     let table_offset = match t.get("table_offset") {
-        Some(o) => doc.number(o, "`table_offset`")?,
+        Some(o) => doc.number_in(o, "`table_offset`", Bounds::within(reach, unit))?,
         None => 0.0,
     };
 
@@ -755,6 +866,41 @@ pub(crate) fn describe(v: &DeValue) -> &'static str {
         DeValue::Datetime(_) => "a date-time",
         DeValue::Array(_) => "an array",
         DeValue::Table(_) => "a table",
+    }
+}
+
+/// The documented range of a number of a machine or error file, and its unit (empty for
+/// none), as messages name it.
+#[derive(Clone, Copy)]
+pub(crate) struct Bounds<'u> {
+    pub lo: f64,
+    pub hi: f64,
+    pub unit: &'u str,
+}
+
+impl<'u> Bounds<'u> {
+    /// From −`limit` to `limit`.
+    pub fn within(limit: f64, unit: &'u str) -> Self {
+        Bounds {
+            lo: -limit,
+            hi: limit,
+            unit,
+        }
+    }
+}
+
+impl std::fmt::Display for Bounds<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let unit = if self.unit.is_empty() {
+            String::new()
+        } else {
+            format!(" {}", self.unit)
+        };
+        if self.lo == -self.hi {
+            write!(f, "within ±{}{unit}", shown(self.hi))
+        } else {
+            write!(f, "from {} to {}{unit}", shown(self.lo), shown(self.hi))
+        }
     }
 }
 
@@ -859,6 +1005,47 @@ impl<'t> Doc<'t> {
             .iter()
             .map(|e| Ok((self.number(e, &format!("an element of {what}"))?, e.span())))
             .collect()
+    }
+
+    /// A finite number within `range`, refused with the range named.
+    pub fn number_in(&self, v: &Spanned<DeValue>, what: &str, range: Bounds) -> Result<f64> {
+        let x = self.number(v, what)?;
+        if x < range.lo || x > range.hi {
+            return Err(self.err(
+                v.span(),
+                format!(
+                    "{what} is {}: expected a number {range} (docs/file-formats.md, \"Limits\")",
+                    &self.text[v.span()]
+                ),
+            ));
+        }
+        Ok(x)
+    }
+
+    /// An array of numbers each within `range`, each with its span.
+    pub fn numbers_in(
+        &self,
+        v: &Spanned<DeValue>,
+        what: &str,
+        range: Bounds,
+    ) -> Result<Vec<(f64, Range<usize>)>> {
+        self.numbers(v, what)?;
+        let array = v.get_ref().as_array().into_iter().flat_map(|a| a.iter());
+        array
+            .map(|e| {
+                Ok((
+                    self.number_in(e, &format!("an element of {what}"), range)?,
+                    e.span(),
+                ))
+            })
+            .collect()
+    }
+
+    /// [`Doc::vec3`] with each component within `range`.
+    pub fn vec3_in(&self, v: &Spanned<DeValue>, what: &str, range: Bounds) -> Result<Vector3<f64>> {
+        let d = self.vec3(v, what)?;
+        self.numbers_in(v, what, range)?;
+        Ok(d)
     }
 
     pub fn vec3(&self, v: &Spanned<DeValue>, what: &str) -> Result<Vector3<f64>> {

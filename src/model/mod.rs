@@ -12,6 +12,98 @@ pub mod terms;
 
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
+use std::io::Read;
+use std::path::Path;
+
+/// The ranges every number of a machine or error file must lie in, checked where it is
+/// read, so that nothing absurd (`1e300`, an overflow to infinity) reaches the model
+/// (docs/file-formats.md, "Limits").
+pub mod limits {
+    /// The largest machine or error file, in bytes (512 KiB): a larger one is refused
+    /// before it is read. Reading takes up to about 100 bytes of memory per byte of TOML,
+    /// so whatever is read stays within 64 MiB.
+    pub const FILE_BYTES: usize = 1 << 19;
+    /// Positions and lengths of the machine, mm: points, travels, table offsets, tool
+    /// lengths, error-table positions of linear axes (±100 m).
+    pub const LENGTH_MM: f64 = 1e5;
+    /// Angular positions, degrees: travels, table offsets and error-table positions of
+    /// rotary axes.
+    pub const ANGLE_DEG: f64 = 1e5;
+    /// The components of a `direction` (only its direction counts).
+    pub const DIRECTION: f64 = 1e6;
+    /// The smallest largest component of a `direction`: below it the vector is taken as
+    /// zero.
+    pub const DIRECTION_MIN: f64 = 1e-6;
+    /// `resolution`, mm or degrees.
+    pub const RESOLUTION: [f64; 2] = [1e-6, 0.1];
+    /// An error of length (a shift, a straightness, a positioning error), mm.
+    pub const ERROR_LENGTH_MM: f64 = 10.0;
+    /// An error of angle (a squareness, a tilt, a roll, pitch or yaw), rad.
+    pub const ERROR_ANGLE_RAD: f64 = 0.1;
+    /// How far from parallel (degrees) two rotary axes that set the tool direction, or
+    /// two or three linear axes that set the tip, must be.
+    pub const AXIS_ANGLE_DEG: f64 = 1.0;
+
+    /// A limit as the documentation writes it: six significant digits at most, no
+    /// trailing zeros (1e-6 is `0.000001`, 0.1 rad in degrees `5.72958`).
+    pub fn shown(x: f64) -> String {
+        let magnitude = if x == 0.0 {
+            0
+        } else {
+            x.abs().log10().floor() as i32
+        };
+        let decimals = 5i32.saturating_sub(magnitude).clamp(0, 17) as usize;
+        let text = format!("{x:.decimals$}");
+        if text.contains('.') {
+            text.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            text
+        }
+    }
+}
+
+/// The text of a machine or error file (`what` names it in messages): at most
+/// [`limits::FILE_BYTES`], refused by its size before it is read (a pipe or a device by
+/// the first byte past the limit), and UTF-8, refused at the first byte that is not.
+pub(crate) fn read_text(path: &Path, what: &str) -> crate::Result<String> {
+    let io = |e| crate::Error::io(path, e);
+    let name = path.display().to_string();
+    let too_large = |size: String| {
+        crate::Error::at(
+            &name,
+            b"",
+            0,
+            format!(
+                "the {what} is {size}: expected at most {} bytes (512 KiB), the limit for \
+                 machine and error files",
+                limits::FILE_BYTES
+            ),
+        )
+    };
+    let file = std::fs::File::open(path).map_err(io)?;
+    if let Ok(meta) = file.metadata()
+        && meta.is_file()
+        && meta.len() > limits::FILE_BYTES as u64
+    {
+        return Err(too_large(format!("{} bytes", meta.len())));
+    }
+    let mut bytes = Vec::new();
+    file.take(limits::FILE_BYTES as u64 + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
+    if bytes.len() > limits::FILE_BYTES {
+        return Err(too_large(format!("more than {} bytes", limits::FILE_BYTES)));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        crate::Error::at(
+            &name,
+            e.as_bytes(),
+            at,
+            format!("the {what} is not UTF-8 text here (byte {at}): expected a TOML file"),
+        )
+    })
+}
 
 pub use table::MotionTable;
 
