@@ -177,9 +177,15 @@ fn predictions(out: &mut String, before: &Errors, after: &Errors) {
         at(&before.direction_urad),
         mean(&before.direction_urad, 1.0, 2, "µrad"),
     );
+    let singular = after
+        .singular_direction_urad
+        .as_ref()
+        .map_or(String::new(), |p| {
+            format!("; at singular poses up to {:.2} µrad{}", p.max, at(p))
+        });
     let _ = writeln!(
         out,
-        "  after compensation:  tip error up to {:.3} µm{}; direction error up to {:.2} µrad{}",
+        "  after compensation:  tip error up to {:.3} µm{}; direction error up to {:.2} µrad{}{singular}",
         after.tip_mm.max * 1e3,
         at(&after.tip_mm),
         after.direction_urad.max,
