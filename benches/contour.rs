@@ -9,11 +9,12 @@
 //! to docs/performance.md.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use nccomp::compensate::{Compensator, Options};
 use nccomp::contour::s_shape::{Finishing, SShape, finishing_program};
 use nccomp::contour::simulate::{Servo, simulate};
 use nccomp::contour::{self, trace};
+use nccomp::kinematics::Kinematics;
 use nccomp::model::{ErrorModel, machine_file};
+use nccomp::program::moves::nominal_moves;
 use std::hint::black_box;
 use std::path::Path;
 
@@ -26,8 +27,8 @@ fn bench(c: &mut Criterion) {
         ..Finishing::default()
     };
     let program = finishing_program(&machine, &SShape::paper(), &finishing).unwrap();
-    let comp = Compensator::new(&machine, &ErrorModel::zero(&machine), Options::default()).unwrap();
-    let (moves, kin) = comp.nominal_moves(program.as_bytes(), "bench.nc").unwrap();
+    let (moves, chain) = nominal_moves(&machine, 0, program.as_bytes(), "bench.nc", 20).unwrap();
+    let kin = &Kinematics::new(&machine, &ErrorModel::zero(&machine), chain).unwrap();
     let servo = Servo {
         sample: 0.001,
         ..Servo::paper(kin.len())

@@ -9,10 +9,11 @@
 //! 15 ms as in the paper, with commanded positions). Both arguments are optional; these
 //! are the defaults. A test checks that the committed program is what this writes.
 
-use nccomp::compensate::{Compensator, Options};
 use nccomp::contour::s_shape::{Finishing, SShape, finishing_program};
 use nccomp::contour::simulate::{Servo, simulate};
+use nccomp::kinematics::Kinematics;
 use nccomp::model::{ErrorModel, machine_file};
+use nccomp::program::moves::nominal_moves;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -39,11 +40,16 @@ fn run(machine_path: &std::path::Path, stem: &std::path::Path) -> Result<(), Str
     let program = finishing_program(&machine, &SShape::paper(), &Finishing::default())?;
     let nc = stem.with_extension("nc");
     std::fs::write(&nc, &program).map_err(|e| format!("{}: {e}", nc.display()))?;
-    let comp = Compensator::new(&machine, &ErrorModel::zero(&machine), Options::default())
-        .map_err(|e| e.render())?;
-    let (moves, kin) = comp
-        .nominal_moves(program.as_bytes(), &nc.display().to_string())
-        .map_err(|e| e.render())?;
+    let (moves, chain) = nominal_moves(
+        &machine,
+        0,
+        program.as_bytes(),
+        &nc.display().to_string(),
+        20,
+    )
+    .map_err(|e| e.render())?;
+    let kin = &Kinematics::new(&machine, &ErrorModel::zero(&machine), chain)
+        .map_err(|e| e.to_string())?;
     let length = machine.tool.lengths[&Finishing::default().tool];
     let trace = simulate(&machine, kin, &moves, length, &Servo::paper(kin.len()));
     let csv = stem.with_extension("trace.csv");

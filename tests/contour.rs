@@ -26,12 +26,12 @@
 //! of the interpolator's block ends would.
 
 use nalgebra::{Rotation3, Unit, Vector3};
-use nccomp::compensate::{Compensator, NominalMove, Options};
 use nccomp::contour::s_shape::{Finishing, SShape, finishing_program};
 use nccomp::contour::trace::{Trace, axis_names};
 use nccomp::contour::{self, Analysis};
 use nccomp::kinematics::{Kinematics, MAX_AXES, Model, Pose, SolveOptions, angle_between};
 use nccomp::model::{AxisKind, ErrorModel, Machine, machine_file};
+use nccomp::program::moves::{NominalMove, nominal_moves};
 use proptest::prelude::*;
 use std::collections::HashMap;
 use std::f64::consts::TAU;
@@ -280,8 +280,8 @@ fn check(
     program: &str,
     inj: &Injection,
 ) -> Result<(Analysis, Vec<Vector3<f64>>), TestCaseError> {
-    let comp = Compensator::new(machine, &ErrorModel::zero(machine), Options::default()).unwrap();
-    let (moves, kin) = comp.nominal_moves(program.as_bytes(), "t.nc").unwrap();
+    let (moves, chain) = nominal_moves(machine, 0, program.as_bytes(), "t.nc", 20).unwrap();
+    let kin = &Kinematics::new(machine, &ErrorModel::zero(machine), chain).unwrap();
     let length = moves.last().unwrap().tool_length;
     let path = Path::new(kin, &moves, length, inj.speed);
     let (trace, poses, sigmas) = synthetic_trace(machine, &path, inj);

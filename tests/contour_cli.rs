@@ -3,10 +3,11 @@
 mod common;
 use common::cli::{nccomp, scratch, stderr, stdout};
 
-use nccomp::compensate::{Compensator, Options};
 use nccomp::contour::s_shape::{Finishing, SShape, finishing_program};
 use nccomp::contour::simulate::{Servo, simulate};
+use nccomp::kinematics::Kinematics;
 use nccomp::model::{ErrorModel, machine_file};
+use nccomp::program::moves::nominal_moves;
 use std::path::Path;
 use std::process::Output;
 
@@ -235,9 +236,8 @@ fn the_s_shape_on_every_five_axis_machine() {
         let machine = machine_file::load(&machine_path).unwrap();
         let program = finishing_program(&machine, &SShape::paper(), &Finishing::default())
             .unwrap_or_else(|e| panic!("{name}: {e}"));
-        let comp =
-            Compensator::new(&machine, &ErrorModel::zero(&machine), Options::default()).unwrap();
-        let (moves, kin) = comp.nominal_moves(program.as_bytes(), name).unwrap();
+        let (moves, chain) = nominal_moves(&machine, 0, program.as_bytes(), name, 20).unwrap();
+        let kin = &Kinematics::new(&machine, &ErrorModel::zero(&machine), chain).unwrap();
         let length = machine.tool.lengths[&Finishing::default().tool];
         let servo = Servo::paper(kin.len());
         let trace = simulate(&machine, kin, &moves, length, &servo);
@@ -285,8 +285,8 @@ fn a_mill_turn_program_is_followed_while_it_mills_in_one_tool_chain() {
         .map(|l| format!("{l}\n"))
         .collect::<String>()
         + "M30\n";
-    let comp = Compensator::new(&machine, &ErrorModel::zero(&machine), Options::default()).unwrap();
-    let (moves, kin) = comp.nominal_moves(pocket.as_bytes(), "pocket.nc").unwrap();
+    let (moves, chain) = nominal_moves(&machine, 0, pocket.as_bytes(), "pocket.nc", 20).unwrap();
+    let kin = &Kinematics::new(&machine, &ErrorModel::zero(&machine), chain).unwrap();
     let trace = simulate(
         &machine,
         kin,

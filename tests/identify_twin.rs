@@ -23,7 +23,7 @@ fn setup() -> &'static (Setup, Decoupling) {
             Plan::load("fixtures/feature_workpiece.plan.toml".as_ref()).unwrap(),
         ));
         let program = std::fs::read_to_string("fixtures/feature_workpiece.nc").unwrap();
-        let cutting = Cutting::new(machine, plan, &program).unwrap();
+        let cutting = Cutting::new(machine, plan, &program, "feature_workpiece.nc").unwrap();
         let params = Params::new(plan, machine).unwrap();
         let dec = Decoupling::new(machine, plan, params, &cutting.cuts).unwrap();
         (
@@ -193,7 +193,7 @@ fn closed_loop_compensation_removes_nine_tenths_of_the_errors() {
         .run(program.as_bytes(), "feature_workpiece.nc", &mut out)
         .unwrap();
     let compensated = String::from_utf8(out).unwrap();
-    let again = Cutting::new(s.machine, s.plan, &compensated).unwrap();
+    let again = Cutting::new(s.machine, s.plan, &compensated, "compensated.nc").unwrap();
     // The parts themselves (noise-free CMM).
     let before = s.cutting.measure(&quasi, &dynamic, 0.0, 0).unwrap();
     let after = again.measure(&quasi, &dynamic, 0.0, 0).unwrap();

@@ -10,71 +10,15 @@
 //! along the way. Where that stays within the path tolerance the arc is kept; otherwise it
 //! is replaced by straight pieces (`arcs`).
 
-use super::exact::Unit;
 use super::pipeline::{Cx, Out};
 use super::{INCH, Pass, State};
 use crate::kinematics::path::PathTolerance;
 use crate::kinematics::{MAX_AXES, Model, Solution, angle_between};
 use crate::nc::number::{same_text, scaled, write_fixed};
 use crate::nc::{TokenKind, Value};
+use crate::program::arc::ArcPath;
+use crate::program::exact::Unit;
 use std::f64::consts::TAU;
-
-/// An arc in axis space: a (possibly spiral) circle in the plane of variables `va`, `vb`,
-/// all other variables linear from start to end.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ArcPath {
-    pub va: usize,
-    pub vb: usize,
-    pub centre: (f64, f64),
-    pub r0: f64,
-    pub r1: f64,
-    pub th0: f64,
-    /// Signed sweep (rad): clockwise negative.
-    pub sweep: f64,
-    pub start: [f64; MAX_AXES],
-    pub end: [f64; MAX_AXES],
-}
-
-impl ArcPath {
-    /// The axis values at fraction `s` of the arc.
-    pub fn point(&self, s: f64, n: usize) -> [f64; MAX_AXES] {
-        let mut q = [0.0; MAX_AXES];
-        for (v, x) in q.iter_mut().enumerate().take(n) {
-            *x = self.start[v] + (self.end[v] - self.start[v]) * s;
-        }
-        let th = self.th0 + self.sweep * s;
-        let r = self.r0 + (self.r1 - self.r0) * s;
-        q[self.va] = self.centre.0 + r * th.cos();
-        q[self.vb] = self.centre.1 + r * th.sin();
-        q
-    }
-
-    /// The arc from `start` to `end` about `centre`, turning the way `like` turns and by
-    /// nearly as much (the same number of turns).
-    fn through(
-        like: &ArcPath,
-        centre: (f64, f64),
-        start: [f64; MAX_AXES],
-        end: [f64; MAX_AXES],
-    ) -> ArcPath {
-        let (va, vb) = (like.va, like.vb);
-        let th0 = (start[vb] - centre.1).atan2(start[va] - centre.0);
-        let th1 = (end[vb] - centre.1).atan2(end[va] - centre.0);
-        let mut sweep = th1 - th0;
-        sweep += TAU * ((like.sweep - sweep) / TAU).round();
-        ArcPath {
-            va,
-            vb,
-            centre,
-            r0: ((start[va] - centre.0).powi(2) + (start[vb] - centre.1).powi(2)).sqrt(),
-            r1: ((end[va] - centre.0).powi(2) + (end[vb] - centre.1).powi(2)).sqrt(),
-            th0,
-            sweep,
-            start,
-            end,
-        }
-    }
-}
 
 /// The centre of the circle through three points, if they are not (nearly) on a line.
 fn circle_centre(p: [(f64, f64); 3]) -> Option<(f64, f64)> {

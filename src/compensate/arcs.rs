@@ -10,35 +10,21 @@
 //! first one carrying the block's G, H, D, S and F words so every piece runs as the block
 //! would. A block with M or T words is refused: they would run after the pieces.
 
-use super::arc_keep::ArcPath;
-use super::exact::Position;
 use super::pipeline::{Cx, Mode, Out};
-use super::{INCH, Pass, State};
+use super::{Pass, State};
 use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Solution};
-use crate::model::AxisKind;
+use crate::nc::TokenKind;
 use crate::nc::edit::Editor;
 use crate::nc::number::{same_text, write_fixed};
-use crate::nc::{Token, TokenKind, Value};
-use crate::program::BlockMotion;
-use std::f64::consts::TAU;
+use crate::program::arc::{ArcPath, arc_path, plane_letters};
+use crate::program::exact::Position;
 use std::fmt::Write;
 
 /// Largest distance (mm) of a chord from its arc.
 const CHORD: f64 = 0.0005;
 /// More pieces than this for one arc means a radius or a tolerance that makes no sense.
 const MAX_PIECES: usize = 100_000;
-
-/// The plane's two axes (as program letters, first and second) and the letters of the
-/// centre words along them.
-fn plane_letters(plane: u8) -> Option<([u8; 2], [u8; 2])> {
-    match plane {
-        0 => Some(([b'X', b'Y'], [b'I', b'J'])),
-        1 => Some(([b'Z', b'X'], [b'K', b'I'])),
-        2 => Some(([b'Y', b'Z'], [b'J', b'K'])),
-        _ => None,
-    }
-}
 
 /// A G2/G3 block in machine axes.
 pub(super) struct ArcMode {
@@ -93,21 +79,28 @@ impl Mode for ArcMode {
         if state.modal.inverse_time && cx.word(b'F').is_none() {
             return refuse("in inverse-time feed (G93) an arc needs its own F word");
         }
-        let path = pass
-            .arc_path(cx.tokens, cx.motion, self.clockwise, state)
-            .map_err(|why| cx.refuse(col, format!("this arc cannot be compensated: {why}")))?;
+        let path = arc_path(
+            &pass.axes,
+            cx.tokens,
+            cx.motion,
+            self.clockwise,
+            &state.pos,
+            &state.modal,
+            pass.spindle,
+        )
+        .map_err(|why| cx.refuse(col, format!("this arc cannot be compensated: {why}")))?;
         for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
             // Axes turning holds are not corrected.
-            if state.programmed & (1 << v) == 0 && word.is_none() && pass.idle & (1 << v) == 0 {
+            if state.pos.programmed & (1 << v) == 0 && word.is_none() && pass.idle & (1 << v) == 0 {
                 out.summary
                     .note_assumed_home(pass.axis_name(v), cx.line.number);
             }
             if word.is_some() {
-                state.programmed |= 1 << v;
+                state.pos.programmed |= 1 << v;
             }
         }
         pass.check_travel(&path.end, col, cx)?;
-        state.nominal = path.end;
+        state.pos.nominal = path.end;
         self.path = Some(path);
         *q = path.end;
         Ok(true)
@@ -285,125 +278,6 @@ impl Mode for ArcMode {
 }
 
 impl Pass<'_> {
-    /// The arc a G2/G3 block describes from `state.nominal`, in the program's axis values;
-    /// `Err` says why it cannot be followed. The state is left as it is.
-    pub(super) fn arc_path(
-        &self,
-        tokens: &[Token],
-        motion: &BlockMotion,
-        clockwise: bool,
-        state: &State,
-    ) -> Result<ArcPath, String> {
-        let n = self.kin.len();
-        let axis_words = &motion.axis_words;
-        let refuse = |why: &str| Err(why.to_string());
-        if state.unknown & !self.spindle != 0 {
-            return refuse(
-                "the arc starts where an axis is at a place nccomp does not know (after G28, G30, G53, M19 or a change of tool chain)",
-            );
-        }
-        if state.modal.diameter && state.modal.arc_absolute {
-            return refuse(
-                "absolute arc centres (G90.1) in diameter mode (G7) are not supported (program the centre incrementally, G91.1)",
-            );
-        }
-        let Some((plane, centre_letters)) = plane_letters(state.modal.plane) else {
-            return refuse("arcs in a U/V/W plane (G17.1, G18.1, G19.1) are not supported");
-        };
-        let var = |letter: u8| {
-            self.var_of_letter[(letter - b'A') as usize]
-                .filter(|&v| self.kin.kind(v) == AxisKind::Linear)
-        };
-        let (Some(va), Some(vb)) = (var(plane[0]), var(plane[1])) else {
-            return refuse("the machine has no linear axes for this arc plane");
-        };
-        // The arc's start in its plane must be known; other axes the program never set are
-        // taken at home (0), as for straight moves, and the summary says so.
-        if (state.programmed & (1 << va)) == 0 || (state.programmed & (1 << vb)) == 0 {
-            return refuse("the program has not yet set where the arc starts in its plane");
-        }
-        let number = |i: usize| match &tokens[i].kind {
-            TokenKind::Word(w) => match w.value {
-                Value::Number { value, .. } => value,
-                _ => 0.0,
-            },
-            _ => 0.0,
-        };
-        let mm = |x: f64| if state.modal.inch { x * INCH } else { x };
-        // Start and end of the move, nominal.
-        let start = state.nominal;
-        let mut end = state.nominal;
-        for v in 0..n {
-            if let Some(i) = axis_words[v] {
-                end[v] = self.unit(v, &state.modal).to_mm(number(i));
-            }
-        }
-        let (a0, b0, a1, b1) = (start[va], start[vb], end[va], end[vb]);
-        // The centre.
-        let word =
-            |letter: u8| motion.arc_words[b"IJKR".iter().position(|&l| l == letter).unwrap_or(0)];
-        let centre = if let Some(ri) = motion.arc_words[3] {
-            let r = mm(number(ri));
-            let (dx, dy) = (a1 - a0, b1 - b0);
-            let d = (dx * dx + dy * dy).sqrt();
-            if d == 0.0 || d > 2.0 * r.abs() + 1e-9 {
-                return refuse(
-                    "with R the end point must differ from the start and lie within 2R of it",
-                );
-            }
-            let h = (r * r - d * d / 4.0).max(0.0).sqrt();
-            // The centre to the left of the chord for a short CCW arc (or long CW).
-            let left = clockwise == (r < 0.0);
-            let (mx, my) = ((a0 + a1) / 2.0, (b0 + b1) / 2.0);
-            let (ux, uy) = (-dy / d, dx / d);
-            if left {
-                (mx + ux * h, my + uy * h)
-            } else {
-                (mx - ux * h, my - uy * h)
-            }
-        } else {
-            let (ci, cj) = (word(centre_letters[0]), word(centre_letters[1]));
-            if ci.is_none() && cj.is_none() {
-                return refuse("it gives neither a centre (I/J/K for its plane) nor a radius (R)");
-            }
-            let off_a = ci.map_or(0.0, |i| mm(number(i)));
-            let off_b = cj.map_or(0.0, |i| mm(number(i)));
-            if state.modal.arc_absolute {
-                (off_a, off_b)
-            } else {
-                (a0 + off_a, b0 + off_b)
-            }
-        };
-        let r0 = ((a0 - centre.0).powi(2) + (b0 - centre.1).powi(2)).sqrt();
-        let r1 = ((a1 - centre.0).powi(2) + (b1 - centre.1).powi(2)).sqrt();
-        if r0 < 1e-9 || (r0 - r1).abs() > 0.002_f64.max(1e-6 * r0) {
-            return refuse(&format!(
-                "its end is not on its circle (radius {r0:.4} at the start, {r1:.4} at the end)"
-            ));
-        }
-        let th0 = (b0 - centre.1).atan2(a0 - centre.0);
-        let th1 = (b1 - centre.1).atan2(a1 - centre.0);
-        // Signed sweep: clockwise negative; equal ends make a full circle.
-        let sweep = if clockwise {
-            let s = -(th0 - th1).rem_euclid(TAU);
-            if s == 0.0 { -TAU } else { s }
-        } else {
-            let s = (th1 - th0).rem_euclid(TAU);
-            if s == 0.0 { TAU } else { s }
-        };
-        Ok(ArcPath {
-            va,
-            vb,
-            centre,
-            r0,
-            r1,
-            th0,
-            sweep,
-            start,
-            end,
-        })
-    }
-
     /// A point of a move, as programmed, must lie within the travel.
     pub(super) fn check_travel(
         &self,

@@ -5,12 +5,11 @@
 //! Path: a G1 from a known start is split where its compensated path strays ([`super::split`]).
 //! Write: the axis words ([`super::writing`]).
 
-use super::exact::{self, Position};
 use super::pipeline::{Cx, Mode, Out};
 use super::{Pass, State, TRAVEL_LIMIT};
 use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Solution};
-use crate::nc::{TokenKind, Value};
+use crate::program::exact;
 
 /// A G0/G1 block in machine axes. (The nominal values before the block and the G91 words'
 /// exact increments are kept in `State::previous` and `State::units`: a mode is made for
@@ -38,11 +37,11 @@ impl Mode for AxesMode {
                 "an optional block (/) in incremental mode (G91) cannot be compensated: whether it runs shifts every later incremental move, and no correction is right for both settings of block delete (program the block in G90)".into(),
             ));
         }
-        state.previous = state.nominal;
-        self.start_known = state.programmed & !state.unknown;
+        state.previous = state.pos.nominal;
+        self.start_known = state.pos.programmed & !state.pos.unknown;
         pass.advance_nominal(cx, state, out)?;
-        if state.unknown & !pass.spindle == 0 {
-            *q = state.nominal;
+        if state.pos.unknown & !pass.spindle == 0 {
+            *q = state.pos.nominal;
             return Ok(true);
         }
         // The pose cannot be evaluated: the block is written as it is, and what the
@@ -50,19 +49,19 @@ impl Mode for AxesMode {
         for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
             let bit = 1u32 << v;
             let Some(i) = *word else { continue };
-            if state.unknown & bit != 0 {
+            if state.pos.unknown & bit != 0 {
                 continue;
             }
             let decimals = cx.number(i).1;
             state.decimals[v] = decimals.max(pass.res_decimals(v, pass.unit(v, &state.modal)));
-            state.programmed |= bit;
+            state.pos.programmed |= bit;
             if state.modal.incremental {
                 // The optional-block bits stay: an increment does not settle them.
                 state.written[v] = state.written[v].add(state.units[v]);
                 state.emitted[v] = exact::to_f64(state.written[v].units());
             } else {
-                state.written[v] = state.nominal_exact[v];
-                state.emitted[v] = state.nominal[v];
+                state.written[v] = state.pos.exact[v];
+                state.emitted[v] = state.pos.nominal[v];
                 state.unsettled &= !bit;
                 if optional {
                     state.uncertain |= bit;
@@ -73,7 +72,7 @@ impl Mode for AxesMode {
             }
         }
         let unknown: Vec<&str> = (0..n)
-            .filter(|&v| state.unknown & !pass.spindle & (1 << v) != 0)
+            .filter(|&v| state.pos.unknown & !pass.spindle & (1 << v) != 0)
             .map(|v| pass.axis_name(v))
             .collect();
         out.summary.note_uncompensated(cx.line.number, &unknown);
@@ -120,7 +119,7 @@ impl Mode for AxesMode {
 }
 
 impl Pass<'_> {
-    /// Follow a G0/G1 block's axis words: `state.nominal` (and its exact twin) become the
+    /// Follow a G0/G1 block's axis words: `state.pos.nominal` (and its exact twin) become the
     /// block's programmed end, absolute or incremental, in mm and degrees, and
     /// `state.units` each G91 word's increment exactly (zeros elsewhere). A programmed value
     /// outside the travel is refused unless limit violations are allowed.
@@ -132,64 +131,28 @@ impl Pass<'_> {
     ) -> Result<(), Diagnostic> {
         let n = self.kin.len();
         let axis_words = &cx.motion.axis_words;
-        state.units = [0i128; MAX_AXES];
-        for (v, word) in axis_words.iter().enumerate().take(n) {
-            let Some(i) = *word else { continue };
-            let t = &cx.tokens[i];
-            let TokenKind::Word(w) = &t.kind else {
-                continue;
-            };
-            let Value::Number { value, decimals } = w.value else {
-                continue;
-            };
-            let unit = self.unit(v, &state.modal);
-            let bit = 1u32 << v;
-            if state.modal.incremental {
-                let u = exact::number_units(
-                    value,
-                    decimals,
-                    &cx.line.content[w.value_span.clone()],
-                    unit,
-                )
-                .filter(|_| decimals <= exact::MAX_DECIMALS)
-                .ok_or_else(|| {
-                    cx.refuse(
-                        t.span.start,
-                        format!(
-                            "{} has {decimals} decimals; an incremental (G91) word can have at most {} (nccomp sums increments exactly)",
-                            w.letter as char,
-                            exact::MAX_DECIMALS
-                        ),
-                    )
-                })?;
-                if state.programmed & bit == 0 && state.unknown & bit == 0 {
-                    out.summary
-                        .note_incremental_from_home(self.axis_name(v), cx.line.number);
-                }
-                state.units[v] = u;
-                state.nominal_exact[v] = state.nominal_exact[v].add(u);
-                state.nominal[v] = exact::to_f64(state.nominal_exact[v].units());
-            } else {
-                state.nominal[v] = unit.to_mm(value);
-                state.nominal_exact[v] = Position::Decimal {
-                    value,
-                    decimals,
-                    unit,
-                };
-                // An optional block cannot make an axis known: with block delete on it
-                // does not run.
-                if !cx.motion.optional {
-                    state.unknown &= !bit;
-                }
+        let from_home = state.pos.advance(
+            &self.axes,
+            cx.line.content,
+            cx.tokens,
+            cx.motion,
+            &state.modal,
+            cx.at,
+            &mut state.units,
+        )?;
+        for v in 0..n {
+            if from_home & (1 << v) != 0 {
+                out.summary
+                    .note_incremental_from_home(self.axis_name(v), cx.line.number);
             }
         }
         // Programmed values outside the travel are the program's own fault.
         for (v, word) in axis_words.iter().enumerate().take(n) {
-            if state.unknown & (1 << v) != 0 {
+            if state.pos.unknown & (1 << v) != 0 {
                 continue;
             }
             if let Some([lo, hi]) = self.travel(v)
-                && !(lo..=hi).contains(&state.nominal[v])
+                && !(lo..=hi).contains(&state.pos.nominal[v])
                 && !self.options.allow_limit_violations
             {
                 let col = word.map_or(0, |i| cx.col(i));
@@ -199,7 +162,7 @@ impl Pass<'_> {
                         format!(
                             "axis {} is programmed to {:.4}, outside its travel {lo} … {hi} (use --allow-limit-violations to compensate it anyway)",
                             self.axis_name(v),
-                            state.nominal[v]
+                            state.pos.nominal[v]
                         ),
                     )
                     .with_code(TRAVEL_LIMIT));

@@ -8,13 +8,13 @@
 //! depth: where the tool at the R plane, with the bottom's X, Y, would be further from the
 //! hole's axis than the path tolerance, the cycle is refused (program it as G0/G1 moves).
 
-use super::exact::{Position, Unit};
 use super::pipeline::{Cx, Mode, Out};
 use super::{Pass, State};
 use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Model, Solution};
 use crate::model::AxisKind;
 use crate::nc::number::write_fixed;
+use crate::program::exact::{Position, Unit};
 
 /// The modal state of an active cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -78,7 +78,7 @@ impl Mode for CycleMode {
         let axis_words = &cx.motion.axis_words;
         let refuse = |why: &str| Err(Self::refuse(cx, why.to_string()));
         let var = |letter: u8| {
-            pass.var_of_letter[(letter - b'A') as usize]
+            pass.axes.var_of_letter[(letter - b'A') as usize]
                 .filter(|&v| pass.kin.kind(v) == AxisKind::Linear)
         };
         let (Some(vx), Some(vy), Some(vz)) = (var(b'X'), var(b'Y'), var(b'Z')) else {
@@ -106,7 +106,7 @@ impl Mode for CycleMode {
         if cx.motion.optional {
             return refuse("an optional block (/) with a cycle is not supported");
         }
-        if state.unknown & !pass.spindle != 0 {
+        if state.pos.unknown & !pass.spindle != 0 {
             return refuse(
                 "it starts where an axis is at a place nccomp does not know (after G28, G30, G53, M19 or a change of tool chain)",
             );
@@ -138,7 +138,7 @@ impl Mode for CycleMode {
             r_plane: None,
             bottom_written: None,
             r_written: None,
-            initial: (state.nominal[vz], state.emitted[vz]),
+            initial: (state.pos.nominal[vz], state.emitted[vz]),
         });
         if let Some(i) = axis_words[vz] {
             cycle.bottom = Some(zu.to_mm(cx.number(i).0));
@@ -151,10 +151,10 @@ impl Mode for CycleMode {
         };
         for v in [vx, vy] {
             if let Some(i) = axis_words[v] {
-                state.nominal[v] = pass.unit(v, &state.modal).to_mm(cx.number(i).0);
-                state.programmed |= 1 << v;
+                state.pos.nominal[v] = pass.unit(v, &state.modal).to_mm(cx.number(i).0);
+                state.pos.programmed |= 1 << v;
             }
-            if state.programmed & (1 << v) == 0 {
+            if state.pos.programmed & (1 << v) == 0 {
                 return Err(Self::refuse(
                     cx,
                     format!(
@@ -165,9 +165,9 @@ impl Mode for CycleMode {
             }
         }
         self.cycle = Some(cycle);
-        let mut q_bottom = state.nominal;
+        let mut q_bottom = state.pos.nominal;
         q_bottom[vz] = bottom;
-        self.r_plane = state.nominal;
+        self.r_plane = state.pos.nominal;
         self.r_plane[vz] = r_plane;
         pass.check_travel(&q_bottom, Self::col(cx), cx)?;
         pass.check_travel(&self.r_plane, Self::col(cx), cx)?;
@@ -291,7 +291,7 @@ impl Mode for CycleMode {
         } else {
             (r_plane, r_emitted)
         };
-        state.nominal[vz] = z_nominal;
+        state.pos.nominal[vz] = z_nominal;
         state.emitted[vz] = z_emitted;
         state.written[vz] = Position::Decimal {
             value: zu.of_mm(z_emitted),

@@ -16,10 +16,10 @@
 //! word programs it. The codes act before the block's motion, as in LinuxCNC's order of
 //! execution.
 
-use super::exact::{Position, Unit};
 use super::{Compensator, State};
 use crate::diag::Diagnostic;
 use crate::nc::{self, Token};
+use crate::program::exact::{Position, Unit};
 use crate::program::{BlockMotion, Motion, Spindle};
 
 /// What the program last told one machine axis, kept while its tool chain is not active.
@@ -40,16 +40,16 @@ impl Parked {
     fn take(state: &State, v: usize) -> Parked {
         let bit = |mask: u32| mask & (1 << v) != 0;
         Parked {
-            nominal: state.nominal[v],
-            nominal_exact: state.nominal_exact[v],
+            nominal: state.pos.nominal[v],
+            nominal_exact: state.pos.exact[v],
             emitted: state.emitted[v],
             written: state.written[v],
             decimals: state.decimals[v],
             optional_line: state.optional_line[v],
             corrected_line: state.corrected_line[v],
             flags: [
-                bit(state.unknown),
-                bit(state.programmed),
+                bit(state.pos.unknown),
+                bit(state.pos.programmed),
                 bit(state.uncertain),
                 bit(state.unsettled),
             ],
@@ -71,16 +71,16 @@ impl Parked {
     }
 
     fn put(&self, state: &mut State, v: usize) {
-        state.nominal[v] = self.nominal;
-        state.nominal_exact[v] = self.nominal_exact;
+        state.pos.nominal[v] = self.nominal;
+        state.pos.exact[v] = self.nominal_exact;
         state.emitted[v] = self.emitted;
         state.written[v] = self.written;
         state.decimals[v] = self.decimals;
         state.optional_line[v] = self.optional_line;
         state.corrected_line[v] = self.corrected_line;
         let masks = [
-            &mut state.unknown,
-            &mut state.programmed,
+            &mut state.pos.unknown,
+            &mut state.pos.programmed,
             &mut state.uncertain,
             &mut state.unsettled,
         ];
@@ -127,7 +127,7 @@ impl Compensator<'_> {
             let p = &self.passes[pass];
             let lathe = self.machine.lathe;
             if let Some(v) = lathe.and_then(|l| p.kin.axes().iter().position(|&i| i == l.spindle)) {
-                state.unknown |= 1 << v;
+                state.pos.unknown |= 1 << v;
                 state.uncertain &= !(1 << v);
                 state.unsettled &= !(1 << v);
                 summary.lathe_unknown = true;
@@ -155,7 +155,7 @@ impl Compensator<'_> {
         let from = &self.passes[state.pass];
         // The milling pass of `chain`: its turning pass has the same variables.
         let to = &self.passes[chain];
-        let moved = state.programmed != 0 || state.unknown != 0;
+        let moved = state.pos.programmed != 0 || state.pos.unknown != 0;
         for (v, &axis) in from.kin.axes().iter().enumerate() {
             state.parked[axis] = Some(Parked::take(state, v));
         }
@@ -172,8 +172,8 @@ impl Compensator<'_> {
         // Variables past the new chain's count must not carry stale bits.
         let n = to.kin.len();
         let beyond = !((1u32 << n) - 1);
-        state.unknown &= !beyond;
-        state.programmed &= !beyond;
+        state.pos.unknown &= !beyond;
+        state.pos.programmed &= !beyond;
         state.uncertain &= !beyond;
         state.unsettled &= !beyond;
         unknown

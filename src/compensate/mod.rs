@@ -9,9 +9,7 @@ mod arc_keep;
 mod arcs;
 mod axes;
 mod cycles;
-mod exact;
 mod lathe;
-mod nominal;
 mod pipeline;
 mod presolve;
 mod split;
@@ -20,8 +18,6 @@ mod summary;
 mod tcp;
 mod writing;
 
-pub use arc_keep::ArcPath;
-pub use nominal::{NominalMove, Shape};
 pub use summary::{Extreme, Sample, Summary};
 
 use crate::diag::{Diagnostic, Error};
@@ -29,8 +25,9 @@ use crate::kinematics::{Kinematics, MAX_AXES, SolveOptions};
 use crate::model::{AxisKind, ErrorModel, Machine};
 use crate::nc;
 use crate::nc::number::decimals_for;
+use crate::program::axes::{Axes, Positions};
+use crate::program::exact::{Position, Unit};
 use crate::program::{INCH, Modal, Reader};
-use exact::{Position, Unit};
 use stream::Run;
 
 /// The code of diagnostics about travel limits ([`Diagnostic::code`]): a block refused
@@ -101,8 +98,8 @@ struct Pass<'m> {
     machine: &'m Machine,
     kin: Kinematics,
     options: Options,
-    /// Variable driven by each letter A..Z.
-    var_of_letter: [Option<usize>; 26],
+    /// The chain's variables as the words drive them.
+    axes: Axes,
     decimals: (u8, u8),
     /// Bit k: variable k is held (`Options::hold`; while turning also every axis but the
     /// tool's X and Z).
@@ -144,19 +141,13 @@ struct State {
     cycle: Option<cycles::Cycle>,
     /// The last N number seen (for numbering inserted blocks).
     last_n: Option<u64>,
-    /// Programmed (nominal) axis values, mm and degrees.
-    nominal: [f64; MAX_AXES],
-    /// The same, exactly (for G91: no drift).
-    nominal_exact: [Position; MAX_AXES],
+    /// Where the program's words put the axes (nominal values, and which are unknown or
+    /// programmed).
+    pos: Positions,
     /// What the machine was last told, mm and degrees.
     emitted: [f64; MAX_AXES],
     /// The same, exactly: the written absolute value, or the sum of the written increments.
     written: [Position; MAX_AXES],
-    /// Bit k: variable k is at a position whose program coordinate nccomp does not know
-    /// (after G28, G30 or G53), until a G90 block programs it.
-    unknown: u32,
-    /// Bit k: variable k has been programmed.
-    programmed: u32,
     /// Decimals of the last word written for each variable.
     decimals: [u8; MAX_AXES],
     /// Bit k: variable k was last set by an optional (block delete) block, at the line in
@@ -314,12 +305,9 @@ impl<'m> Compensator<'m> {
             vector_written: [0.0, 0.0, 1.0],
             tip_nominal: [0.0; 3],
             tip_written: [0.0; 3],
-            nominal: [0.0; MAX_AXES],
-            nominal_exact: [Position::Units(0); MAX_AXES],
+            pos: Positions::default(),
             emitted: [0.0; MAX_AXES],
             written: [Position::Units(0); MAX_AXES],
-            unknown: 0,
-            programmed: 0,
             decimals: [0; MAX_AXES],
             uncertain: 0,
             unsettled: 0,
@@ -354,18 +342,13 @@ impl<'m> Pass<'m> {
             })
         };
         let mut kin = Kinematics::new(machine, errors, chain).map_err(usage)?;
-        let mut var_of_letter = [None; 26];
-        for (var, &axis) in kin.axes().iter().enumerate() {
-            let letter = machine.axes[axis].word.to_ascii_uppercase();
-            if letter.is_ascii_uppercase() {
-                var_of_letter[(letter as u8 - b'A') as usize] = Some(var);
-            }
-        }
+        let axes = Axes::of(machine, chain);
+        let var_of_letter = axes.var_of_letter;
         let mut pass = Pass {
             machine,
             kin: kin.clone(),
             options: options.clone(),
-            var_of_letter,
+            axes,
             decimals: (
                 decimals_for(machine.resolution.linear),
                 decimals_for(machine.resolution.rotary),
@@ -431,11 +414,7 @@ impl<'m> Pass<'m> {
 
     /// What variable `var`'s words are in, in the program's current modes.
     fn unit(&self, var: usize, modal: &Modal) -> Unit {
-        let linear = self.is_linear(var);
-        Unit {
-            inch: modal.inch && linear,
-            diameter: modal.diameter && linear && self.letter(var) == b'X',
-        }
+        self.axes.unit(var, modal)
     }
 
     /// The decimals that resolve variable `var` to the machine's resolution in words of

@@ -207,7 +207,7 @@ impl Pass<'_> {
         if cx.motion.kind == MoveKind::Home && gone == 0 {
             gone = (0..n).fold(0u32, |m, v| m | 1 << v);
         }
-        state.unknown |= gone;
+        state.pos.unknown |= gone;
         state.uncertain &= !gone;
         state.unsettled &= !gone;
     }
@@ -314,7 +314,7 @@ impl Pass<'_> {
                 if x < lo - 1e-9 || x > hi + 1e-9 {
                     let (limit, side) = if x < lo { (lo, "below") } else { (hi, "above") };
                     let col = word.map_or(0, |i| cx.col(i));
-                    let message = if (lo..=hi).contains(&state.nominal[v]) {
+                    let message = if (lo..=hi).contains(&state.pos.nominal[v]) {
                         format!(
                             "after compensation axis {} = {x:.4} is {side} its travel limit {limit}",
                             self.axis_name(v)
@@ -323,7 +323,7 @@ impl Pass<'_> {
                         format!(
                             "axis {} is programmed to {:.4}, {side} its travel limit {limit}",
                             self.axis_name(v),
-                            state.nominal[v]
+                            state.pos.nominal[v]
                         )
                     };
                     if self.options.allow_limit_violations {

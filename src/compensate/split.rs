@@ -8,7 +8,6 @@
 //! gap of the numbering where there is one, the block's G words, letter case, spacing and
 //! decimals; in inverse-time feed (G93) each piece gets the F that keeps the move's time.
 
-use super::exact::{self, Position};
 use super::pipeline::{Cx, Out};
 use super::{Pass, State};
 use crate::kinematics::MAX_AXES;
@@ -16,6 +15,7 @@ use crate::kinematics::path::Piece;
 use crate::nc::edit::Editor;
 use crate::nc::number::{same_text, write_fixed};
 use crate::nc::{TokenKind, Value};
+use crate::program::exact::{self, Position};
 use std::fmt::Write;
 
 impl Pass<'_> {
@@ -39,7 +39,7 @@ impl Pass<'_> {
         // The pass's list of pieces, taken while `state` changes below and given back.
         let mut pieces = std::mem::take(&mut state.pieces);
         self.kin.subdivide_into(
-            (&previous[..n], &state.nominal[..n]),
+            (&previous[..n], &state.pos.nominal[..n]),
             (&state.emitted[..n], &end[..n]),
             state.modal.length,
             hold,

@@ -108,7 +108,7 @@ impl<'c, 'm> Run<'c, 'm> {
         if let Some(s) = summary.trace.as_mut().and_then(|t| t.last_mut())
             && s.line == line.number
         {
-            s.nominal = state.nominal[..n].to_vec();
+            s.nominal = state.pos.nominal[..n].to_vec();
             s.written = state.emitted[..n].to_vec();
             s.chain = pass.chain;
         }

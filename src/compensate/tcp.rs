@@ -23,7 +23,6 @@
 //! more than the tolerance; an arc is replaced by straight TCP moves within half a micron
 //! of it, each end compensated. Inserted blocks are TCP blocks in the program's style.
 
-use super::exact::{Position, Unit};
 use super::pipeline::{Cx, Mode, Out};
 use super::{INCH, Pass, State};
 use crate::diag::Diagnostic;
@@ -32,8 +31,9 @@ use crate::kinematics::{MAX_AXES, Model, Pose, Solution, SolveOptions, angle_bet
 use crate::model::AxisKind;
 use crate::nc::edit::Editor;
 use crate::nc::number::{decimals_for, same_text, write_fixed, write_fixed_value};
+use crate::program::arc::{centre_words, circle, plane_letters};
+use crate::program::exact::{Position, Unit};
 use nalgebra::Vector3;
-use std::f64::consts::TAU;
 use std::fmt::Write;
 
 /// Largest distance (mm) of a chord from the tip's arc.
@@ -183,7 +183,7 @@ impl Mode for TcpMode {
         }
         let to_mm = |x: f64| if state.modal.inch { x * INCH } else { x };
         // Where the move starts.
-        self.q0 = state.nominal;
+        self.q0 = state.pos.nominal;
         self.tip0 = Vector3::from(state.tip_nominal);
         self.start = Some(End {
             s: 0.0,
@@ -193,13 +193,13 @@ impl Mode for TcpMode {
             solution: None,
         });
         for v in 0..n {
-            if state.programmed & (1 << v) == 0 && cx.motion.axis_words[v].is_none() {
+            if state.pos.programmed & (1 << v) == 0 && cx.motion.axis_words[v].is_none() {
                 out.summary
                     .note_assumed_home(pass.axis_name(v), cx.line.number);
             }
         }
         // The programmed end: tip, and rotary words or vector.
-        let mut guess = state.nominal;
+        let mut guess = state.pos.nominal;
         for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
             let Some(i) = *word else { continue };
             let value = cx.number(i).0;
@@ -229,7 +229,7 @@ impl Mode for TcpMode {
                 p: tip,
                 o: v / self.scale,
             };
-            pass.controller_ik(&target, &state.nominal, state.modal.length)
+            pass.controller_ik(&target, &state.pos.nominal, state.modal.length)
                 .ok_or_else(|| cx.refuse(first, "the nominal machine cannot reach this tip and tool vector from the previous axis positions (no inverse-kinematics solution near them)".into()))?
         } else {
             let sol = pass.kin.tcp_axes_with_rotaries(
@@ -250,7 +250,7 @@ impl Mode for TcpMode {
             sol.q
         };
         if let Some(clockwise) = self.arc {
-            self.tip_arc = Some(self.tip_arc(pass, cx, state, clockwise, tip)?);
+            self.tip_arc = Some(self.tip_arc(cx, state, clockwise, tip)?);
         }
         // Under G43.5 at a singular pose the rotary axes keep their programmed values: the
         // vector is then written as programmed, and the controller holds the free axis where
@@ -274,8 +274,8 @@ impl Mode for TcpMode {
                 }
             }
         }
-        state.nominal = nominal;
-        state.programmed |= (1u32 << n) - 1;
+        state.pos.nominal = nominal;
+        state.pos.programmed |= (1u32 << n) - 1;
         *q = solve_at;
         Ok(true)
     }
@@ -475,7 +475,6 @@ impl TcpMode {
     /// `end`.
     fn tip_arc(
         &self,
-        pass: &Pass<'_>,
         cx: &Cx<'_, '_>,
         state: &State,
         clockwise: bool,
@@ -486,83 +485,36 @@ impl TcpMode {
             .arc_code
             .map_or_else(|| cx.first_col(), |i| cx.col(i));
         let refuse = |why: String| cx.refuse(col, format!("this arc cannot be compensated: {why}"));
-        let (a, b, centre_words) = match state.modal.plane {
-            0 => (0, 1, [0, 1]),
-            1 => (2, 0, [2, 0]),
-            2 => (1, 2, [1, 2]),
-            _ => return Err(refuse("arcs in a U/V/W plane are not supported".into())),
+        // The tip components of the plane's two axes.
+        let Some((plane, centre_letters)) = plane_letters(state.modal.plane) else {
+            return Err(refuse("arcs in a U/V/W plane are not supported".into()));
         };
+        let component = |letter: u8| usize::from(letter - b'X');
+        let (a, b) = (component(plane[0]), component(plane[1]));
         if state.modal.inverse_time && cx.word(b'F').is_none() {
             return Err(refuse(
                 "in inverse-time feed (G93) an arc needs its own F word".into(),
             ));
         }
-        if cx.motion.arc_words.iter().any(Option::is_some) && cx.word(b'P').is_some() {
+        if cx.word(b'P').is_some() {
             return Err(refuse("a P word (several turns) is not supported".into()));
         }
-        let _ = pass;
-        let mm = |x: f64| if state.modal.inch { x * INCH } else { x };
-        let (a0, b0) = (self.tip0[a], self.tip0[b]);
-        let (a1, b1) = (end[a], end[b]);
-        let centre = if let Some(ri) = cx.motion.arc_words[3] {
-            let r = mm(cx.number(ri).0);
-            let (dx, dy) = (a1 - a0, b1 - b0);
-            let d = (dx * dx + dy * dy).sqrt();
-            if d == 0.0 || d > 2.0 * r.abs() + 1e-9 {
-                return Err(refuse(
-                    "with R the end point must differ from the start and lie within 2R of it"
-                        .into(),
-                ));
-            }
-            let h = (r * r - d * d / 4.0).max(0.0).sqrt();
-            let left = clockwise == (r < 0.0);
-            let (mx, my) = ((a0 + a1) / 2.0, (b0 + b1) / 2.0);
-            let (ux, uy) = (-dy / d, dx / d);
-            if left {
-                (mx + ux * h, my + uy * h)
-            } else {
-                (mx - ux * h, my - uy * h)
-            }
-        } else {
-            let word = |c: usize| cx.motion.arc_words[c];
-            let (ci, cj) = (word(centre_words[0]), word(centre_words[1]));
-            if ci.is_none() && cj.is_none() {
-                return Err(refuse(
-                    "it gives neither a centre (I/J/K for its plane) nor a radius (R)".into(),
-                ));
-            }
-            let off_a = ci.map_or(0.0, |i| mm(cx.number(i).0));
-            let off_b = cj.map_or(0.0, |i| mm(cx.number(i).0));
-            if state.modal.arc_absolute {
-                (off_a, off_b)
-            } else {
-                (a0 + off_a, b0 + off_b)
-            }
-        };
-        let r0 = ((a0 - centre.0).powi(2) + (b0 - centre.1).powi(2)).sqrt();
-        let r1 = ((a1 - centre.0).powi(2) + (b1 - centre.1).powi(2)).sqrt();
-        if r0 < 1e-9 || (r0 - r1).abs() > 0.002_f64.max(1e-6 * r0) {
-            return Err(refuse(format!(
-                "its end is not on its circle (radius {r0:.4} at the start, {r1:.4} at the end)"
-            )));
-        }
-        let th0 = (b0 - centre.1).atan2(a0 - centre.0);
-        let th1 = (b1 - centre.1).atan2(a1 - centre.0);
-        let sweep = if clockwise {
-            let s = -(th0 - th1).rem_euclid(TAU);
-            if s == 0.0 { -TAU } else { s }
-        } else {
-            let s = (th1 - th0).rem_euclid(TAU);
-            if s == 0.0 { TAU } else { s }
-        };
+        let c = circle(
+            (self.tip0[a], self.tip0[b]),
+            (end[a], end[b]),
+            clockwise,
+            centre_words(cx.tokens, cx.motion, centre_letters, &state.modal),
+            state.modal.arc_absolute,
+        )
+        .map_err(refuse)?;
         Ok(TipArc {
             a,
             b,
-            centre,
-            r0,
-            r1,
-            th0,
-            sweep,
+            centre: c.centre,
+            r0: c.r0,
+            r1: c.r1,
+            th0: c.th0,
+            sweep: c.sweep,
         })
     }
 
@@ -586,7 +538,7 @@ impl TcpMode {
         }
         let mut q = [0.0; MAX_AXES];
         for (v, x) in q.iter_mut().enumerate().take(n) {
-            *x = self.q0[v] + (state.nominal[v] - self.q0[v]) * s;
+            *x = self.q0[v] + (state.pos.nominal[v] - self.q0[v]) * s;
         }
         (tip, q)
     }
@@ -987,7 +939,7 @@ impl Pass<'_> {
     pub(super) fn tip_vars(&self) -> Option<[usize; 3]> {
         let mut vars = [0; 3];
         for (c, letter) in [b'X', b'Y', b'Z'].iter().enumerate() {
-            let v = self.var_of_letter[(letter - b'A') as usize]?;
+            let v = self.axes.var_of_letter[(letter - b'A') as usize]?;
             if self.kin.kind(v) != AxisKind::Linear {
                 return None;
             }
@@ -1111,9 +1063,9 @@ impl Pass<'_> {
             ));
         }
         let n = self.kin.len();
-        let (nominal, _) = self
-            .kin
-            .pose(Model::Nominal, &state.nominal[..n], state.modal.length);
+        let (nominal, _) =
+            self.kin
+                .pose(Model::Nominal, &state.pos.nominal[..n], state.modal.length);
         let (written, _) = self
             .kin
             .pose(Model::Nominal, &state.emitted[..n], state.modal.length);

@@ -1,12 +1,12 @@
 //! Writing a compensated block's axis words: positions in G90, increments in G91.
 
-use super::exact::{self, Position};
 use super::pipeline::{Cx, Out};
 use super::{Pass, State, axis_order};
 use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
 use crate::nc::edit::Editor;
 use crate::nc::number::{same_text, write_fixed_value, write_scaled_bytes};
+use crate::program::exact::{self, Position};
 
 impl Pass<'_> {
     /// G90: write each axis's compensated position `q` (mm, degrees); a word keeps its
@@ -42,9 +42,9 @@ impl Pass<'_> {
                         };
                         out.summary.words_changed += 1;
                     } else {
-                        state.written[v] = state.nominal_exact[v];
+                        state.written[v] = state.pos.exact[v];
                     }
-                    state.programmed |= 1 << v;
+                    state.pos.programmed |= 1 << v;
                     state.unsettled &= !(1 << v);
                     if optional {
                         state.uncertain |= 1 << v;
@@ -82,7 +82,7 @@ impl Pass<'_> {
                         };
                         self.insert_axis_word(cx, out, v, &text);
                         out.summary.words_added += 1;
-                        if state.programmed & (1 << v) == 0 {
+                        if state.pos.programmed & (1 << v) == 0 {
                             out.summary
                                 .note_assumed_home(self.axis_name(v), line.number);
                         }
@@ -159,7 +159,7 @@ impl Pass<'_> {
             match word {
                 Some(i) => {
                     state.decimals[v] = d;
-                    state.programmed |= bit;
+                    state.pos.programmed |= bit;
                     if increment != units[v] {
                         let mut text = state.spare_texts.pop().unwrap_or_default();
                         write_scaled_bytes(k, e, &mut text);
@@ -172,7 +172,7 @@ impl Pass<'_> {
                     exact::write_digits(k, e, &mut text);
                     self.insert_axis_word(cx, out, v, &text);
                     out.summary.words_added += 1;
-                    if state.programmed & bit == 0 {
+                    if state.pos.programmed & bit == 0 {
                         out.summary
                             .note_assumed_home(self.axis_name(v), line.number);
                     }

@@ -17,10 +17,10 @@ pub mod search;
 pub mod simulate;
 pub mod trace;
 
-use crate::compensate::{Compensator, NominalMove, Shape};
 use crate::diag::Error;
 use crate::kinematics::Kinematics;
 use crate::model::{ErrorModel, Machine};
+use crate::program::moves::{NominalMove, Shape, nominal_moves};
 use reference::RefPoint;
 use report::Summary;
 use search::{ActualPath, Match, SearchOptions};
@@ -126,19 +126,26 @@ pub fn analyse(
     (trace_path, trace_text): (&str, &[u8]),
     options: &Options,
 ) -> crate::Result<Analysis> {
-    let comp = Compensator::new(
-        machine,
-        &ErrorModel::zero(machine),
-        crate::compensate::Options {
-            tool_chain: options.tool_chain.clone(),
-            // Analysing, not writing: a value beyond a travel limit is what it is.
-            allow_limit_violations: true,
-            ..crate::compensate::Options::default()
-        },
-    )?;
-    let (moves, kin) = comp.nominal_moves(program, program_path)?;
-    let trace = trace::read(trace_path, trace_text, machine, kin)?;
-    analyse_trace(kin, &moves, &trace, (program_path, program), options)
+    let start = match &options.tool_chain {
+        None => 0,
+        Some(name) => machine.tool_chain(name).ok_or_else(|| {
+            Error::Usage(format!(
+                "--tool-chain {name}: the machine file has no such tool chain; it has {}",
+                machine
+                    .tool_chains
+                    .iter()
+                    .map(|c| format!("`{}`", c.name))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))
+        })?,
+    };
+    // Analysing, not writing: a value beyond a travel limit is what it is.
+    let (moves, chain) = nominal_moves(machine, start, program, program_path, 20)?;
+    let kin = Kinematics::new(machine, &ErrorModel::zero(machine), chain)
+        .map_err(|e| Error::Usage(e.to_string()))?;
+    let trace = trace::read(trace_path, trace_text, machine, &kin)?;
+    analyse_trace(&kin, &moves, &trace, (program_path, program), options)
 }
 
 /// Compute the contour errors of `trace` against the program's `moves` (the program's

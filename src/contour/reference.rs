@@ -5,9 +5,9 @@
 //! tool tip moves at most `step` mm and the tool direction at most `step / 50 mm` rad
 //! between points.
 
-use crate::compensate::{NominalMove, Shape};
 use crate::kinematics::{Kinematics, MAX_AXES, Model, angle_between};
 use crate::model::AxisKind;
+use crate::program::moves::{NominalMove, Shape};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 

@@ -9,9 +9,9 @@
 //! with an optional uniform noise and rounded to the encoder resolution.
 
 use super::trace::Trace;
-use crate::compensate::{NominalMove, Shape};
 use crate::kinematics::{Kinematics, MAX_AXES, Model};
 use crate::model::{AxisKind, Machine};
+use crate::program::moves::{NominalMove, Shape};
 
 /// How the simulated machine behaves.
 #[derive(Debug, Clone, PartialEq)]

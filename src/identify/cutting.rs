@@ -1,7 +1,7 @@
 //! Where a program cut each planned point, and what a machine does there.
 //!
-//! The program's G1 moves are read as a controller runs them: axis values interpolated
-//! linearly. For a planned point P (outward normal n, ball radius r) the cutter location is
+//! The program's feed moves are read by the one reader as a controller runs them: axis
+//! values interpolated linearly (arcs on their circles). For a planned point P (outward normal n, ball radius r) the cutter location is
 //! the point of the path whose nominal ball centre is nearest T = P + r·n. A machine with
 //! an error model puts the ball centre at c(q) instead; to first order the surface it
 //! leaves near P is moved along n by n·(c(q) − T). That is the whole model of the cut: the
@@ -11,7 +11,7 @@
 use super::plan::{Plan, v3};
 use crate::kinematics::{Kinematics, Model};
 use crate::model::Machine;
-use crate::nc::{self, TokenKind};
+use crate::program::moves::{NominalMove, Shape, nominal_moves};
 use nalgebra::Vector3;
 
 /// The cutter location of one planned point.
@@ -31,64 +31,39 @@ pub struct Cut {
     pub miss: f64,
 }
 
-/// A G1 move: the axis values at its start and end.
-pub type Move = (Vec<f64>, Vec<f64>);
-
-/// The G1 moves of a program as pairs of axis-value vectors, and the active tool length.
-pub fn moves(kin: &Kinematics, machine: &Machine, program: &str) -> (Vec<Move>, f64) {
-    let n = kin.len();
-    let letters: Vec<u8> = kin
-        .axes()
-        .iter()
-        .map(|&a| machine.axes[a].word as u8)
-        .collect();
-    let mut q = vec![0.0; n];
-    let mut rapid = true;
-    let mut length = machine.tool.length;
-    let mut out = Vec::new();
-    let mut tokens = Vec::new();
-    for line in nc::lines(program.as_bytes()) {
-        tokens.clear();
-        nc::parse_line(line.content, &mut tokens);
-        let mut next = q.clone();
-        let mut moved = false;
-        let mut g43 = false;
-        for t in &tokens {
-            if let TokenKind::Word(w) = &t.kind {
-                let Some(v) = w.number() else { continue };
-                match w.letter {
-                    b'G' if v == 0.0 => rapid = true,
-                    b'G' if v == 1.0 => rapid = false,
-                    b'G' if v == 43.0 => g43 = true,
-                    b'H' if g43 => {
-                        length = machine
-                            .tool
-                            .lengths
-                            .get(&(v as u32))
-                            .copied()
-                            .unwrap_or(length)
-                    }
-                    l => {
-                        if let Some(k) = letters.iter().position(|&c| c == l) {
-                            next[k] = v;
-                            moved = true;
-                        }
-                    }
-                }
-            }
-        }
-        if moved {
-            if !rapid {
-                out.push((q.clone(), next.clone()));
-            }
-            q = next;
-        }
+/// The feed moves (G1, G2, G3) of a program on the nominal machine, as the one reader reads
+/// them (G90/G91, mm/inch, tool lengths), and the tool length they cut with; a program in
+/// another tool chain than the machine's first, or cutting with two tool lengths, is
+/// refused.
+pub fn moves(
+    machine: &Machine,
+    program: &str,
+    path: &str,
+) -> crate::Result<(Vec<NominalMove>, f64)> {
+    let (moves, chain) = nominal_moves(machine, 0, program.as_bytes(), path, 20)?;
+    if chain != 0 {
+        return Err(crate::Error::Usage(format!(
+            "{path}: the program cuts in tool chain `{}`; expected the machine's first",
+            machine.tool_chains[chain].name
+        )));
     }
-    (out, length)
-}
-
-fn lerp(a: &[f64], b: &[f64], t: f64) -> Vec<f64> {
-    a.iter().zip(b).map(|(x, y)| x + (y - x) * t).collect()
+    let feed: Vec<NominalMove> = moves
+        .into_iter()
+        .filter(|m| m.start.is_some() && m.shape != Shape::Rapid)
+        .collect();
+    let length = feed.first().map_or(machine.tool.length, |m| m.tool_length);
+    if let Some(other) = feed.iter().find(|m| m.tool_length != length) {
+        return Err(crate::Error::at(
+            path,
+            program.as_bytes(),
+            other.offset,
+            format!(
+                "this move cuts with a tool length of {} mm, the ones before with {length} mm: expected one tool",
+                other.tool_length
+            ),
+        ));
+    }
+    Ok((feed, length))
 }
 
 /// The ball centre at `q` with `model`.
@@ -97,20 +72,27 @@ pub fn centre(kin: &Kinematics, model: Model, q: &[f64], length: f64, r: f64) ->
 }
 
 /// The cutter location of every planned point on the program's path (nominal geometry),
-/// in plan order.
-pub fn cuts(kin: &Kinematics, machine: &Machine, plan: &Plan, program: &str) -> Vec<Cut> {
-    let (moves, length) = moves(kin, machine, program);
+/// in plan order; the program is named `path` in messages.
+pub fn cuts(
+    kin: &Kinematics,
+    machine: &Machine,
+    plan: &Plan,
+    program: &str,
+    path: &str,
+) -> crate::Result<Vec<Cut>> {
+    let (moves, length) = moves(machine, program, path)?;
+    let n = kin.len();
     let r = plan.tool_radius;
     const SAMPLES: usize = 16;
     let samples: Vec<Vec<Vector3<f64>>> = moves
         .iter()
-        .map(|(a, b)| {
+        .map(|m| {
             (0..=SAMPLES)
                 .map(|i| {
                     centre(
                         kin,
                         Model::Nominal,
-                        &lerp(a, b, i as f64 / SAMPLES as f64),
+                        &m.at(i as f64 / SAMPLES as f64, n)[..n],
                         length,
                         r,
                     )
@@ -147,10 +129,10 @@ pub fn cuts(kin: &Kinematics, machine: &Machine, plan: &Plan, program: &str) -> 
             // The nominal path is nearly straight between samples: the nearest point of
             // the sampled polyline, then refinement on the path's local tangent.
             let best = nearest(&polylines, &boxes, [target.x, target.y, target.z]);
-            let Some((a, b)) = moves.get(best.1) else {
+            let Some(m) = moves.get(best.1) else {
                 continue;
             };
-            let c = |t: f64| centre(kin, Model::Nominal, &lerp(a, b, t), length, r);
+            let c = |t: f64| centre(kin, Model::Nominal, &m.at(t, n)[..n], length, r);
             let step = 1.0 / SAMPLES as f64;
             let mut t = best.2;
             let h = 1e-4 * step;
@@ -169,7 +151,7 @@ pub fn cuts(kin: &Kinematics, machine: &Machine, plan: &Plan, program: &str) -> 
                 t = next;
                 here = c(t);
             }
-            let q = lerp(a, b, t);
+            let q = m.at(t, n)[..n].to_vec();
             let miss = (here - target).norm();
             out.push(Cut {
                 id: p.id.clone(),
@@ -181,7 +163,7 @@ pub fn cuts(kin: &Kinematics, machine: &Machine, plan: &Plan, program: &str) -> 
             });
         }
     }
-    out
+    Ok(out)
 }
 
 /// The nearest point to `x` on sampled polylines: (distance, polyline, parameter 0…1).

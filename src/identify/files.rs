@@ -8,7 +8,7 @@ use super::params::Params;
 use super::plan::Plan;
 use super::report;
 use super::separate::Part;
-use super::simulate::Cutting;
+use super::simulate::{Cutting, CuttingError};
 use crate::model::{ErrorModel, Machine, error_file, machine_file};
 use crate::{Error, Result};
 use std::path::Path;
@@ -30,6 +30,7 @@ pub struct Workpiece {
     plan_path: String,
     plan_text: String,
     program: String,
+    program_path: String,
 }
 
 impl Workpiece {
@@ -37,26 +38,30 @@ impl Workpiece {
         let machine = machine_file::load(machine)?;
         let (plan_text, plan_path) = read(plan)?;
         let plan = Plan::parse(&plan_text, &plan_path)?;
-        let (program, _) = read(program)?;
+        let (program, program_path) = read(program)?;
         Ok(Workpiece {
             machine,
             plan,
             plan_path,
             plan_text,
             program,
+            program_path,
         })
     }
 
     /// Where the program cuts the plan's points; a point it does not cut is an error at
     /// the point in the plan.
     pub fn cutting(&self) -> Result<Cutting<'_>> {
-        Cutting::new(&self.machine, &self.plan, &self.program).map_err(|(id, m)| {
-            Error::at(
-                &self.plan_path,
-                self.plan_text.as_bytes(),
-                quoted(&self.plan_text, &id),
-                m,
-            )
+        Cutting::new(&self.machine, &self.plan, &self.program, &self.program_path).map_err(|e| {
+            match e {
+                CuttingError::Program(e) => e,
+                CuttingError::Point(id, m) => Error::at(
+                    &self.plan_path,
+                    self.plan_text.as_bytes(),
+                    quoted(&self.plan_text, &id),
+                    m,
+                ),
+            }
         })
     }
 

@@ -97,29 +97,39 @@ pub struct Cutting<'a> {
     pub cuts: Vec<Cut>,
 }
 
+/// Why a program's cut of a plan cannot be followed.
+#[derive(Debug)]
+pub enum CuttingError {
+    /// The program cannot be read.
+    Program(crate::Error),
+    /// A planned point (its id) the program does not cut, and why.
+    Point(String, String),
+}
+
 /// How far (mm) a program's ball centre may pass from a planned point's: farther, the
 /// program does not cut it (a compensated program passes up to its corrections away).
 pub const MISS: f64 = 0.5;
 
 impl<'a> Cutting<'a> {
-    /// Find where `program` cuts every point of `plan`; a point it does not cut is an
-    /// error: (its id, the message).
+    /// Find where `program` (named `path` in messages) cuts every point of `plan`; a
+    /// program that cannot be read, or a point it does not cut, is an error.
     pub fn new(
         machine: &'a Machine,
         plan: &'a Plan,
         program: &str,
-    ) -> Result<Self, (String, String)> {
+        path: &str,
+    ) -> Result<Self, CuttingError> {
         let nominal = Kinematics::new(machine, &ErrorModel::zero(machine), 0)
-            .map_err(|e| (String::new(), e.to_string()))?;
-        let cuts = cutting::cuts(&nominal, machine, plan, program);
+            .map_err(|e| CuttingError::Program(crate::Error::Usage(e.to_string())))?;
+        let cuts =
+            cutting::cuts(&nominal, machine, plan, program, path).map_err(CuttingError::Program)?;
         if cuts.len() != plan.points().count() {
-            return Err((
-                String::new(),
-                "the program has no cutting (G1) moves".into(),
-            ));
+            return Err(CuttingError::Program(crate::Error::Usage(format!(
+                "{path}: the program has no cutting (G1, G2, G3) moves"
+            ))));
         }
         if let Some(c) = cuts.iter().find(|c| c.miss > MISS) {
-            return Err((
+            return Err(CuttingError::Point(
                 c.id.clone(),
                 format!(
                     "planned point `{}` at {:?} is not on the program's path: the ball centre \

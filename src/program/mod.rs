@@ -15,8 +15,12 @@
 //! word given by an expression or a parameter, a letter that is not an axis of the
 //! machine, a code not in the table (unless the machine file names it), control flow.
 
+pub mod arc;
+pub mod axes;
 pub mod codes;
+pub mod exact;
 mod gcode;
+pub mod moves;
 
 pub use codes::{Code, CodeName, MachineCodes, Tcp};
 
@@ -168,37 +172,16 @@ impl Modal {
 #[derive(Debug, Clone)]
 pub struct Reader<'m> {
     machine: &'m Machine,
-    /// For each tool chain: the variable driven by each letter A..Z, and the variables'
-    /// letters in order (for messages).
-    chains: Vec<ChainWords>,
+    /// The variables of each tool chain.
+    chains: Vec<axes::Axes>,
     /// Some tool chain lists the tools that select it.
     tools_listed: bool,
-}
-
-#[derive(Debug, Clone)]
-struct ChainWords {
-    var_of_letter: [Option<usize>; 26],
-    letters: Vec<u8>,
 }
 
 impl<'m> Reader<'m> {
     pub fn new(machine: &'m Machine) -> Self {
         let chains = (0..machine.tool_chains.len())
-            .map(|c| {
-                let mut var_of_letter = [None; 26];
-                let mut letters = Vec::new();
-                for (v, &axis) in machine.variables(c).iter().enumerate() {
-                    let letter = machine.axes[axis].word.to_ascii_uppercase() as u8;
-                    if letter.is_ascii_uppercase() && v < MAX_AXES {
-                        var_of_letter[(letter - b'A') as usize] = Some(v);
-                    }
-                    letters.push(letter);
-                }
-                ChainWords {
-                    var_of_letter,
-                    letters,
-                }
-            })
+            .map(|c| axes::Axes::of(machine, c))
             .collect();
         Reader {
             machine,
@@ -211,15 +194,9 @@ impl<'m> Reader<'m> {
         self.machine
     }
 
-    /// The variable that `letter` drives in tool chain `chain`.
-    pub fn var_of_letter(&self, chain: usize, letter: u8) -> Option<usize> {
-        let letter = letter.to_ascii_uppercase();
-        if !letter.is_ascii_uppercase() {
-            return None;
-        }
-        self.chains
-            .get(chain)
-            .and_then(|c| c.var_of_letter[(letter - b'A') as usize])
+    /// The variables of tool chain `chain`.
+    pub fn axes(&self, chain: usize) -> &axes::Axes {
+        &self.chains[chain]
     }
 
     /// The meaning of a G or M code on this machine.

@@ -13,13 +13,13 @@ use crate::nc::number::{fixed, scaled};
 /// Positions are integers of 10^-SCALE mm (or degree). An inch word with `d` decimals is
 /// exactly `254 · 10^(SCALE − d − 1)` units per last digit, so inch words are exact too
 /// (and diameter words, at 5 or 127 of those).
-pub(super) const SCALE: u8 = 13;
+pub const SCALE: u8 = 13;
 
 /// The most decimals an incremental word may have (and an added one gets).
-pub(super) const MAX_DECIMALS: u8 = 12;
+pub const MAX_DECIMALS: u8 = 12;
 
 /// A number's text `[+-]?(digits[.digits?]|.digits)` as its digits and decimals, exactly.
-pub(super) fn parse_decimal(text: &[u8]) -> Option<(i128, u8)> {
+pub fn parse_decimal(text: &[u8]) -> Option<(i128, u8)> {
     let (negative, digits) = match text.split_first()? {
         (b'-', rest) => (true, rest),
         (b'+', rest) => (false, rest),
@@ -63,7 +63,7 @@ const POW10: [i128; SCALE as usize + 1] = {
 /// What a word's number is in: mm (degrees for rotary words) or inch, and either one as a
 /// diameter (a lathe's X in G7: the axis moves by half the number).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub(super) struct Unit {
+pub struct Unit {
     pub inch: bool,
     pub diameter: bool,
 }
@@ -107,7 +107,7 @@ impl Unit {
 }
 
 /// Units in one step of the last digit of a word with `decimals` decimals.
-pub(super) fn step(decimals: u8, unit: Unit) -> Option<i128> {
+pub fn step(decimals: u8, unit: Unit) -> Option<i128> {
     let e = usize::from(SCALE.checked_sub(decimals)?);
     let tenths = unit.tenths();
     if tenths % 10 == 0 {
@@ -118,13 +118,13 @@ pub(super) fn step(decimals: u8, unit: Unit) -> Option<i128> {
 }
 
 /// A written number in units (mm or degrees), if it is exactly representable.
-pub(super) fn units(mantissa: i128, decimals: u8, unit: Unit) -> Option<i128> {
+pub fn units(mantissa: i128, decimals: u8, unit: Unit) -> Option<i128> {
     mantissa.checked_mul(step(decimals, unit)?)
 }
 
 /// A number with `decimals` decimals, read as `value` from `text`, in units: from the
 /// float where that is certainly exact (the common case, cheap), else from the text.
-pub(super) fn number_units(value: f64, decimals: u8, text: &[u8], unit: Unit) -> Option<i128> {
+pub fn number_units(value: f64, decimals: u8, text: &[u8], unit: Unit) -> Option<i128> {
     match scaled(value, decimals) {
         Some(k) => units(k.into(), decimals, unit),
         None => parse_decimal(text).and_then(|(k, d)| units(k, d, unit)),
@@ -134,7 +134,7 @@ pub(super) fn number_units(value: f64, decimals: u8, text: &[u8], unit: Unit) ->
 /// A position kept exactly, and cheaply: a G90 word, or a value written in G90, stays the
 /// decimal it is and becomes units only when a G91 block needs it.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum Position {
+pub enum Position {
     /// The number `write_fixed(value, decimals)` prints (for a word read from a program:
     /// the word), in its unit.
     Decimal {
@@ -147,7 +147,7 @@ pub(super) enum Position {
 
 impl Position {
     /// In units; the nearest for a number with more digits than the units hold.
-    pub(super) fn units(self) -> i128 {
+    pub fn units(self) -> i128 {
         match self {
             Position::Units(u) => u,
             Position::Decimal {
@@ -161,14 +161,15 @@ impl Position {
     }
 
     /// Moved by `increment` units.
-    pub(super) fn add(self, increment: i128) -> Position {
+    #[allow(clippy::should_implement_trait)]
+    pub fn add(self, increment: i128) -> Position {
         Position::Units(self.units().saturating_add(increment))
     }
 }
 
 /// Units as mm or degrees: the nearest f64, as parsing the number's text gives it (so a
 /// position reached in G91 is the same number as the G90 word for it).
-pub(super) fn to_f64(units: i128) -> f64 {
+pub fn to_f64(units: i128) -> f64 {
     if units.unsigned_abs() < 1 << 53 {
         // Both exact, and IEEE division rounds correctly.
         units as f64 / 10f64.powi(SCALE.into())
@@ -180,13 +181,13 @@ pub(super) fn to_f64(units: i128) -> f64 {
 }
 
 /// The nearest units to a value in mm or degrees (for numbers that are not exact).
-pub(super) fn from_f64(x: f64) -> i128 {
+pub fn from_f64(x: f64) -> i128 {
     (x * 10f64.powi(SCALE.into())).round() as i128
 }
 
 /// `x` rounded to `decimals` decimals, as the integer of its digits: exactly what
 /// `write_fixed` prints (and so what a G90 word would be).
-pub(super) fn round_to(x: f64, decimals: u8) -> Option<i128> {
+pub fn round_to(x: f64, decimals: u8) -> Option<i128> {
     match scaled(x, decimals) {
         Some(k) => Some(k.into()),
         // Within a hair of a tie, or large: std's exact formatting decides.
@@ -212,7 +213,7 @@ fn div_round(a: i128, b: i128) -> i128 {
 /// the increment gets as many as it needs, up to [`MAX_DECIMALS`]. Only a position mixed
 /// from words of different units may have none; then the nearest at `decimals` is taken,
 /// and the next block starts again from the exact position written.
-pub(super) fn increment(from: i128, target: f64, decimals: u8, unit: Unit) -> Option<(i128, u8)> {
+pub fn increment(from: i128, target: f64, decimals: u8, unit: Unit) -> Option<(i128, u8)> {
     let t = units(round_to(target, decimals)?, decimals, unit)?;
     let delta = t - from;
     for d in decimals..=MAX_DECIMALS {
@@ -226,7 +227,7 @@ pub(super) fn increment(from: i128, target: f64, decimals: u8, unit: Unit) -> Op
 
 /// Append `mantissa · 10^-decimals` with exactly `decimals` digits after the point (no
 /// point for 0), never a negative zero: as `write_fixed` writes numbers.
-pub(super) fn write_digits(mantissa: i128, decimals: u8, out: &mut String) {
+pub fn write_digits(mantissa: i128, decimals: u8, out: &mut String) {
     crate::nc::number::write_scaled(mantissa, decimals, out);
 }
 
