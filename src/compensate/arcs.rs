@@ -14,11 +14,11 @@ use super::pipeline::{Cx, Mode, Out};
 use super::{Pass, State};
 use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Solution};
-use crate::nc::TokenKind;
 use crate::nc::edit::Editor;
 use crate::nc::number::{same_text, write_fixed};
 use crate::program::arc::{ArcPath, arc_path, plane_letters};
 use crate::program::exact::Position;
+use crate::program::gcode;
 use std::fmt::Write;
 
 /// Largest distance (mm) of a chord from its arc.
@@ -130,11 +130,7 @@ impl Mode for ArcMode {
             self.kept = Some(kept);
             return Ok(());
         }
-        if let Some(i) = cx
-            .tokens
-            .iter()
-            .position(|t| matches!(&t.kind, TokenKind::Word(w) if matches!(w.letter, b'M' | b'T')))
-        {
+        if let Some(i) = gcode::once_word(cx.tokens) {
             return Err(cx.refuse(
                 cx.col(i),
                 "this arc must be replaced by straight pieces (kept as an arc it strays from the path) and cannot be with an M or T word in its block: the word would run only after the first pieces (put it in a block of its own)".into(),
@@ -167,15 +163,10 @@ impl Mode for ArcMode {
             }
             if k == 1 {
                 // The block's own modal words, so the first piece runs as the block would.
-                for (ti, t) in cx.tokens.iter().enumerate() {
-                    if let TokenKind::Word(w) = &t.kind
-                        && matches!(w.letter, b'G' | b'H' | b'D' | b'S')
-                        && Some(ti) != cx.motion.arc_code
-                    {
-                        words.push(String::from_utf8_lossy(editor.text(ti)).into_owned());
-                    }
+                for ti in gcode::carried_words(cx.tokens, cx.motion.arc_code) {
+                    words.push(String::from_utf8_lossy(editor.text(ti)).into_owned());
                 }
-                words.push(style.word(b'G', "1"));
+                words.push(gcode::linear_code(&style));
             }
             for &v in &pass.write_order {
                 let unit = pass.unit(v, &state.modal);
@@ -236,34 +227,8 @@ impl Mode for ArcMode {
         }
         // The arc's own line: G1, no centre words, its end compensated.
         let pieces = self.pieces;
+        straighten(cx, out, pieces > 1);
         let mut editor = cx.editor(out.edits);
-        if let Some(i) = cx.motion.arc_code {
-            let digits = editor
-                .word(i)
-                .map_or(&b""[..], |w| &cx.line.content[w.value_span.clone()]);
-            let text = if digits.first() == Some(&b'0') {
-                "01"
-            } else {
-                "1"
-            };
-            editor.replace_number(i, text);
-        } else if pieces == 1 {
-            // A modal arc of one piece: the motion mode must become G1 here.
-            let style = editor.style();
-            let first = cx
-                .motion
-                .axis_words
-                .iter()
-                .flatten()
-                .copied()
-                .min_by_key(|&i| cx.col(i));
-            if let Some(first) = first {
-                editor.insert_before_word(first, &(style.word(b'G', "1") + style.separator));
-            }
-        }
-        for i in cx.motion.arc_words.iter().flatten() {
-            editor.remove_word(*i);
-        }
         if state.modal.inverse_time
             && let Some(f) = cx.word(b'F')
             && let Some((value, decimals)) = editor.number(f)
@@ -274,6 +239,24 @@ impl Mode for ArcMode {
         }
         out.summary.note_arc(cx.line.number, pieces - 1);
         pass.write_positions(cx, &end.q, false, state, out)
+    }
+}
+
+/// Make an arc's own line a straight move (the last of its pieces): G1, no centre words. A
+/// modal arc gets a G1 unless inserted pieces have set it already.
+pub(super) fn straighten(cx: &Cx<'_, '_>, out: &mut Out<'_>, pieces_inserted: bool) {
+    let mut editor = cx.editor(out.edits);
+    let first = cx
+        .motion
+        .axis_words
+        .iter()
+        .flatten()
+        .copied()
+        .min_by_key(|&i| cx.col(i))
+        .filter(|_| !pieces_inserted);
+    gcode::make_linear(&mut editor, cx.motion.arc_code, first);
+    for i in cx.motion.arc_words.iter().flatten() {
+        editor.remove_word(*i);
     }
 }
 

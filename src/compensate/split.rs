@@ -16,6 +16,7 @@ use crate::nc::edit::Editor;
 use crate::nc::number::{same_text, write_fixed};
 use crate::nc::{TokenKind, Value};
 use crate::program::exact::{self, Position};
+use crate::program::gcode;
 use std::fmt::Write;
 
 impl Pass<'_> {
@@ -64,17 +65,8 @@ impl Pass<'_> {
         let (line, tokens) = (cx.line, cx.tokens);
         // Words that would run twice or at the wrong time (tool changes, M functions) keep
         // the block whole, and so does G93 without an F to share out.
-        let mut f_word = None;
-        let mut whole = false;
-        for (i, t) in tokens.iter().enumerate() {
-            if let TokenKind::Word(w) = &t.kind {
-                match w.letter {
-                    b'M' | b'T' => whole = true,
-                    b'F' => f_word = Some(i),
-                    _ => {}
-                }
-            }
-        }
+        let f_word = cx.word(b'F');
+        let whole = gcode::once_word(tokens).is_some();
         // In G91 an axis last set by an optional block starts from a place that depends on
         // the block delete switch: no increment from it is right (the block itself says so).
         let uncertain = state.modal.incremental && (state.uncertain | state.unsettled) != 0;
@@ -94,12 +86,8 @@ impl Pass<'_> {
                 words.push(style.word(b'N', number));
             }
             // The block's own modal words, so the piece runs as the block would.
-            for t in tokens {
-                if let TokenKind::Word(w) = &t.kind
-                    && matches!(w.letter, b'G' | b'H' | b'D' | b'S')
-                {
-                    words.push(String::from_utf8_lossy(&line.content[t.span.clone()]).into_owned());
-                }
+            for i in gcode::carried_words(tokens, None) {
+                words.push(String::from_utf8_lossy(editor.text(i)).into_owned());
             }
             for &v in &self.write_order {
                 let unit = self.unit(v, &state.modal);

@@ -33,6 +33,7 @@ use crate::nc::edit::Editor;
 use crate::nc::number::{decimals_for, same_text, write_fixed, write_fixed_value};
 use crate::program::arc::{centre_words, circle, plane_letters};
 use crate::program::exact::{Position, Unit};
+use crate::program::gcode;
 use nalgebra::Vector3;
 use std::fmt::Write;
 
@@ -416,36 +417,8 @@ impl Mode for TcpMode {
             self.write_vector(pass, cx, &last, state, out);
         }
         if self.tip_arc.is_some() {
-            // The arc's own line is the last straight piece: G1, no centre words.
-            let mut editor = cx.editor(out.edits);
-            if let Some(i) = cx.motion.arc_code {
-                let digits = editor
-                    .word(i)
-                    .map_or(&b""[..], |w| &cx.line.content[w.value_span.clone()]);
-                editor.replace_number(
-                    i,
-                    if digits.first() == Some(&b'0') {
-                        "01"
-                    } else {
-                        "1"
-                    },
-                );
-            } else if self.pieces.is_empty() {
-                let style = editor.style();
-                if let Some(first) = cx
-                    .motion
-                    .axis_words
-                    .iter()
-                    .flatten()
-                    .copied()
-                    .min_by_key(|&i| cx.col(i))
-                {
-                    editor.insert_before_word(first, &(style.word(b'G', "1") + style.separator));
-                }
-            }
-            for i in cx.motion.arc_words.iter().flatten() {
-                editor.remove_word(*i);
-            }
+            // The arc's own line is the last straight piece.
+            super::arcs::straighten(cx, out, !self.pieces.is_empty());
             out.summary.note_arc(cx.line.number, self.pieces.len());
         }
         // What the controller commands for what is written.
@@ -858,16 +831,11 @@ impl TcpMode {
             }
             if k == 0 {
                 // The block's own modal words, so the pieces run as the block would.
-                for (ti, t) in cx.tokens.iter().enumerate() {
-                    if let crate::nc::TokenKind::Word(w) = &t.kind
-                        && matches!(w.letter, b'G' | b'H' | b'D' | b'S')
-                        && Some(ti) != cx.motion.arc_code
-                    {
-                        words.push(String::from_utf8_lossy(editor.text(ti)).into_owned());
-                    }
+                for ti in gcode::carried_words(cx.tokens, cx.motion.arc_code) {
+                    words.push(String::from_utf8_lossy(editor.text(ti)).into_owned());
                 }
                 if self.tip_arc.is_some() {
-                    words.push(style.word(b'G', "1"));
+                    words.push(gcode::linear_code(&style));
                 }
             }
             for &v in &pass.write_order {

@@ -24,7 +24,8 @@ use crate::kinematics::{Kinematics, Model};
 use crate::model::{AxisKind, ErrorModel, Machine};
 use crate::nc::number::{decimals_for, fixed, same_text};
 use crate::nc::{self, Edit, Token, TokenKind, Value};
-use crate::program::codes::{self, Code, CodeName, MachineCodes};
+use crate::program::codes::{self, Code, MachineCodes};
+use crate::program::gcode;
 use nalgebra::{Rotation3, Unit, Vector3};
 
 /// Millimetres per inch.
@@ -414,10 +415,9 @@ impl Pass<'_, '_> {
                 _ => continue,
             };
             has_words = true;
-            let number = w.number();
             match w.letter {
-                b'G' | b'M' => {
-                    let Some(number) = number else {
+                letter if gcode::is_code_letter(letter) => {
+                    let Some(name) = gcode::code_name(w) else {
                         return Err(at(
                             t.span.start,
                             format!(
@@ -426,30 +426,21 @@ impl Pass<'_, '_> {
                             ),
                         ));
                     };
-                    let code = codes::meaning(
-                        CodeName {
-                            letter: w.letter,
-                            code10: (number * 10.0).round() as i64,
-                        },
-                        self.codes,
-                    );
-                    if w.letter == b'G' {
-                        let g = classify(code);
-                        if g == G::Call {
-                            call = Some(t.span.start);
-                        }
-                        if let G::Refused(what) = g {
-                            return Err(at(
-                                t.span.start,
-                                format!("{what} cannot be followed by the probe pass"),
-                            ));
-                        }
-                        gs.push((g, t.span.start));
-                    } else {
-                        match code {
-                            Code::Subprogram => call = Some(t.span.start),
-                            Code::ProgramEnd => end_of_program = true,
-                            _ => {}
+                    match codes::meaning(name, self.codes) {
+                        Code::Subprogram => call = Some(t.span.start),
+                        Code::ProgramEnd => end_of_program = true,
+                        code => {
+                            let g = classify(code);
+                            if g == G::Call {
+                                call = Some(t.span.start);
+                            }
+                            if let G::Refused(what) = g {
+                                return Err(at(
+                                    t.span.start,
+                                    format!("{what} cannot be followed by the probe pass"),
+                                ));
+                            }
+                            gs.push((g, t.span.start));
                         }
                     }
                 }

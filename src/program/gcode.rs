@@ -612,3 +612,72 @@ impl Reader<'_> {
         Ok(true)
     }
 }
+
+// Writing blocks in the G-code dialect: what the compensation pass asks of the dialect when
+// it inserts blocks before a line or turns an arc into a straight move.
+
+/// Whether words with `letter` name codes (G and M).
+pub fn is_code_letter(letter: u8) -> bool {
+    matches!(letter, b'G' | b'M')
+}
+
+/// The G or M code a word names (`G43.4` is G, 434), if it is one with a number.
+pub fn code_name(w: &crate::nc::Word) -> Option<super::CodeName> {
+    let number = w.number().filter(|_| is_code_letter(w.letter))?;
+    Some(super::CodeName {
+        letter: w.letter,
+        code10: (number * 10.0).round() as i64,
+    })
+}
+
+/// A word of the block that must run once and with the block itself (an M function, a tool
+/// selection): a block that holds one cannot have pieces inserted before it.
+pub fn once_word(tokens: &[Token]) -> Option<usize> {
+    tokens
+        .iter()
+        .position(|t| matches!(&t.kind, TokenKind::Word(w) if matches!(w.letter, b'M' | b'T')))
+}
+
+/// The words a block inserted before this one repeats so that it runs as the block would:
+/// its G codes (except the word `except`, the block's own arc code), H, D and S words.
+pub fn carried_words(tokens: &[Token], except: Option<usize>) -> impl Iterator<Item = usize> + '_ {
+    tokens
+        .iter()
+        .enumerate()
+        .filter_map(move |(i, t)| match &t.kind {
+            TokenKind::Word(w)
+                if matches!(w.letter, b'G' | b'H' | b'D' | b'S') && Some(i) != except =>
+            {
+                Some(i)
+            }
+            _ => None,
+        })
+}
+
+/// The code of a straight move at feed, in the block's style.
+pub fn linear_code(style: &crate::nc::edit::Style) -> String {
+    style.word(b'G', "1")
+}
+
+/// Make the block a straight move: its arc code `code` becomes G1 (G01 where it is written
+/// with a leading zero), or, when the arc is modal (no code in the block), G1 goes before
+/// its first axis word `first`.
+pub fn make_linear(
+    editor: &mut crate::nc::edit::Editor<'_>,
+    code: Option<usize>,
+    first: Option<usize>,
+) {
+    match (code, first) {
+        (Some(i), _) => {
+            let padded = editor
+                .word(i)
+                .is_some_and(|w| editor.content()[w.value_span.clone()].first() == Some(&b'0'));
+            editor.replace_number(i, if padded { "01" } else { "1" });
+        }
+        (None, Some(first)) => {
+            let style = editor.style();
+            editor.insert_before_word(first, &(linear_code(&style) + style.separator));
+        }
+        (None, None) => {}
+    }
+}

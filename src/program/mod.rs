@@ -19,7 +19,7 @@ pub mod arc;
 pub mod axes;
 pub mod codes;
 pub mod exact;
-mod gcode;
+pub mod gcode;
 pub mod moves;
 
 pub use codes::{Code, CodeName, MachineCodes, Tcp};
