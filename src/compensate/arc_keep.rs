@@ -16,7 +16,7 @@ use crate::kinematics::path::PathTolerance;
 use crate::kinematics::{MAX_AXES, Model, Solution, angle_between};
 use crate::nc::number::{same_text, scaled, write_fixed};
 use crate::nc::{TokenKind, Value};
-use crate::program::arc::ArcPath;
+use crate::program::arc::{ArcPath, Centre, circle};
 use crate::program::exact::Unit;
 use std::f64::consts::TAU;
 
@@ -118,22 +118,16 @@ impl Pass<'_> {
                 centre_words.push((Ok(ri), text));
             }
             // The controller's centre from R and the written ends.
-            let r = r * unit;
-            let ((a0, b0), (a1, b1)) = (plane(&start), plane(&end));
-            let (dx, dy) = (a1 - a0, b1 - b0);
-            let dist = (dx * dx + dy * dy).sqrt();
-            if dist == 0.0 || dist > 2.0 * r.abs() {
-                return None;
-            }
-            let h = (r * r - dist * dist / 4.0).max(0.0).sqrt();
-            let left = (nominal.sweep < 0.0) == (r < 0.0);
-            let (mx, my) = ((a0 + a1) / 2.0, (b0 + b1) / 2.0);
-            let (ux, uy) = (-dy / dist, dx / dist);
-            if left {
-                (mx + ux * h, my + uy * h)
-            } else {
-                (mx - ux * h, my - uy * h)
-            }
+            let clockwise = nominal.sweep < 0.0;
+            circle(
+                plane(&start),
+                plane(&end),
+                clockwise,
+                Centre::Radius(r * unit),
+                false,
+            )
+            .ok()?
+            .centre
         } else {
             let origin = if state.modal.arc_absolute {
                 (0.0, 0.0)

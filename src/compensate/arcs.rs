@@ -10,14 +10,13 @@
 //! first one carrying the block's G, H, D, S and F words so every piece runs as the block
 //! would. A block with M or T words is refused: they would run after the pieces.
 
-use super::pipeline::{Cx, Mode, Out};
-use super::{Pass, State};
+use super::Pass;
+use super::pipeline::{Block, Cx, Mode, Out};
 use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Solution};
 use crate::nc::edit::Editor;
-use crate::nc::number::{same_text, write_fixed};
+use crate::nc::number::write_fixed;
 use crate::program::arc::{ArcPath, arc_path, plane_letters};
-use crate::program::exact::Position;
 use crate::program::gcode;
 use std::fmt::Write;
 
@@ -56,14 +55,8 @@ impl ArcMode {
 }
 
 impl Mode for ArcMode {
-    fn target(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        state: &mut State,
-        out: &mut Out<'_>,
-        q: &mut [f64; MAX_AXES],
-    ) -> Result<bool, Diagnostic> {
+    fn target(&mut self, b: &mut Block, q: &mut [f64; MAX_AXES]) -> Result<bool, Diagnostic> {
+        let (pass, cx, state, out) = b.parts();
         let n = pass.kin.len();
         let col = Self::col(cx);
         let refuse =
@@ -106,15 +99,8 @@ impl Mode for ArcMode {
         Ok(true)
     }
 
-    fn path(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        end: &Solution,
-        hold: u32,
-        state: &mut State,
-        out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic> {
+    fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic> {
+        let (pass, cx, state, out) = b.parts();
         let n = pass.kin.len();
         let Some(path) = self.path else {
             return Ok(());
@@ -168,25 +154,7 @@ impl Mode for ArcMode {
                 }
                 words.push(gcode::linear_code(&style));
             }
-            for &v in &pass.write_order {
-                let unit = pass.unit(v, &state.modal);
-                let value = unit.of_mm(sol.q[v]);
-                let emitted = unit.of_mm(state.emitted[v]);
-                let d = state.decimals[v].max(pass.res_decimals(v, unit));
-                if same_text(emitted, value, d) {
-                    continue;
-                }
-                let mut number = String::new();
-                write_fixed(value, d, &mut number);
-                let x: f64 = number.parse().unwrap_or(value);
-                state.emitted[v] = unit.to_mm(x);
-                state.written[v] = Position::Decimal {
-                    value,
-                    decimals: d,
-                    unit,
-                };
-                words.push(style.word(pass.letter(v), &number));
-            }
+            pass.piece_words(&sol.q, state, &style, &mut words);
             if let Some(f) = f_word
                 && let Some((value, decimals)) = editor.number(f)
             {
@@ -205,14 +173,8 @@ impl Mode for ArcMode {
         Ok(())
     }
 
-    fn write(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        end: &Solution,
-        state: &mut State,
-        out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic> {
+    fn write(&mut self, b: &mut Block, end: &Solution) -> Result<(), Diagnostic> {
+        let (pass, cx, state, out) = b.parts();
         if let Some(centre_words) = &self.kept {
             pass.write_positions(cx, &end.q, false, state, out)?;
             for (word, _) in centre_words {

@@ -5,7 +5,7 @@
 //! Path: a G1 from a known start is split where its compensated path strays ([`super::split`]).
 //! Write: the axis words ([`super::writing`]).
 
-use super::pipeline::{Cx, Mode, Out};
+use super::pipeline::{Block, Cx, Mode, Out};
 use super::{Pass, State, TRAVEL_LIMIT};
 use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Solution};
@@ -21,14 +21,8 @@ pub(super) struct AxesMode {
 }
 
 impl Mode for AxesMode {
-    fn target(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        state: &mut State,
-        out: &mut Out<'_>,
-        q: &mut [f64; MAX_AXES],
-    ) -> Result<bool, Diagnostic> {
+    fn target(&mut self, b: &mut Block, q: &mut [f64; MAX_AXES]) -> Result<bool, Diagnostic> {
+        let (pass, cx, state, out) = b.parts();
         let n = pass.kin.len();
         let optional = cx.motion.optional;
         if optional && state.modal.incremental {
@@ -79,15 +73,8 @@ impl Mode for AxesMode {
         Ok(false)
     }
 
-    fn path(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        end: &Solution,
-        hold: u32,
-        state: &mut State,
-        out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic> {
+    fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic> {
+        let (pass, cx, state, out) = b.parts();
         // Split the move where its path strays (G1 from a known start).
         let n = pass.kin.len();
         if pass.options.path.is_some()
@@ -101,14 +88,8 @@ impl Mode for AxesMode {
         Ok(())
     }
 
-    fn write(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        end: &Solution,
-        state: &mut State,
-        out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic> {
+    fn write(&mut self, b: &mut Block, end: &Solution) -> Result<(), Diagnostic> {
+        let (pass, cx, state, out) = b.parts();
         if state.modal.incremental {
             let units = state.units;
             pass.write_increments(cx, &units, &end.q, state, out)

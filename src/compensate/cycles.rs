@@ -8,8 +8,8 @@
 //! depth: where the tool at the R plane, with the bottom's X, Y, would be further from the
 //! hole's axis than the path tolerance, the cycle is refused (program it as G0/G1 moves).
 
-use super::pipeline::{Cx, Mode, Out};
-use super::{Pass, State};
+use super::Pass;
+use super::pipeline::{Block, Cx, Mode};
 use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Model, Solution};
 use crate::model::AxisKind;
@@ -44,17 +44,7 @@ impl CycleMode {
     fn col(cx: &Cx<'_, '_>) -> usize {
         cx.motion
             .arc_code
-            .map(|i| cx.col(i))
-            .or_else(|| {
-                cx.motion
-                    .axis_words
-                    .iter()
-                    .chain(&cx.motion.arc_words)
-                    .flatten()
-                    .map(|&i| cx.col(i))
-                    .min()
-            })
-            .unwrap_or(0)
+            .map_or_else(|| cx.first_word_col(), |i| cx.col(i))
     }
 
     fn refuse(cx: &Cx<'_, '_>, why: String) -> Diagnostic {
@@ -66,14 +56,8 @@ impl CycleMode {
 }
 
 impl Mode for CycleMode {
-    fn target(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        state: &mut State,
-        _out: &mut Out<'_>,
-        q: &mut [f64; MAX_AXES],
-    ) -> Result<bool, Diagnostic> {
+    fn target(&mut self, b: &mut Block, q: &mut [f64; MAX_AXES]) -> Result<bool, Diagnostic> {
+        let (pass, cx, state, _) = b.parts();
         let n = pass.kin.len();
         let axis_words = &cx.motion.axis_words;
         let refuse = |why: &str| Err(Self::refuse(cx, why.to_string()));
@@ -184,15 +168,8 @@ impl Mode for CycleMode {
 
     /// One X, Y serves the whole depth: the tool at the R plane, with the bottom's X, Y, is
     /// still on the hole's axis.
-    fn path(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        end: &Solution,
-        hold: u32,
-        state: &mut State,
-        _out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic> {
+    fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic> {
+        let (pass, cx, state, _) = b.parts();
         let n = pass.kin.len();
         let [vx, vy, _] = self.vars;
         let (r_sol, _) = pass.solve(&self.r_plane, hold, cx, state)?;
@@ -220,14 +197,8 @@ impl Mode for CycleMode {
     /// X, Y and the bottom Z, as any block's axis words (a missing Z is compared with the
     /// cycle's bottom as last written, not with where the machine stands); R rewritten
     /// where it is, added where the modal value no longer fits.
-    fn write(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        end: &Solution,
-        state: &mut State,
-        out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic> {
+    fn write(&mut self, b: &mut Block, end: &Solution) -> Result<(), Diagnostic> {
+        let (pass, cx, state, out) = b.parts();
         let (Some(cycle), Some(r_sol)) = (self.cycle.as_mut(), self.r_solution) else {
             return Ok(());
         };
@@ -276,7 +247,8 @@ impl Mode for CycleMode {
 
     /// Where the cycle leaves the tool: the R plane (G99) or the initial level (G98; R
     /// when that is higher).
-    fn after(&mut self, pass: &Pass<'_>, state: &mut State) {
+    fn after(&mut self, b: &mut Block) {
+        let (pass, _, state, _) = b.parts();
         let (Some(cycle), Some(r_sol)) = (self.cycle, self.r_solution) else {
             return;
         };

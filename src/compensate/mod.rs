@@ -173,26 +173,7 @@ struct State {
 
 impl<'m> Compensator<'m> {
     pub fn new(machine: &'m Machine, errors: &ErrorModel, options: Options) -> crate::Result<Self> {
-        let start = match &options.tool_chain {
-            None => 0,
-            Some(name) => machine.tool_chain(name).ok_or_else(|| {
-                Error::Usage(if machine.tool_chains.len() == 1 {
-                    format!(
-                        "--tool-chain {name}: the machine file has a single `tool_chain`, so there is nothing to choose (leave the option out)"
-                    )
-                } else {
-                    format!(
-                        "--tool-chain {name}: the machine file has no such tool chain; it has {}",
-                        machine
-                            .tool_chains
-                            .iter()
-                            .map(|c| format!("`{}`", c.name))
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    )
-                })
-            })?,
-        };
+        let start = machine.start_chain(options.tool_chain.as_deref())?;
         let modes: &[bool] = if machine.lathe.is_some() {
             &[false, true]
         } else {

@@ -66,6 +66,18 @@ impl Cx<'_, '_> {
             .unwrap_or(0)
     }
 
+    /// The column of the block's first axis or I/J/K/R word (0 when it has none).
+    pub fn first_word_col(&self) -> usize {
+        self.motion
+            .axis_words
+            .iter()
+            .chain(&self.motion.arc_words)
+            .flatten()
+            .map(|&i| self.col(i))
+            .min()
+            .unwrap_or(0)
+    }
+
     /// The number of the word at token `i` (the reader has checked it is one), its decimals
     /// and the span of its value.
     pub fn number(&self, i: usize) -> (f64, u8, std::ops::Range<usize>) {
@@ -91,24 +103,55 @@ impl Cx<'_, '_> {
     }
 }
 
+/// The stages, in order.
+fn run<M: Mode>(mode: &mut M, b: &mut Block) -> Result<(), Diagnostic> {
+    // Filled by the mode (an out-parameter: 128 bytes in a `Result` are copied twice).
+    let mut target = [0.0; MAX_AXES];
+    if !mode.target(b, &mut target)? {
+        return Ok(());
+    }
+    let pass = b.pass;
+    let hold = pass.hold | mode.hold(pass);
+    // Used where it lies: moved out of the `Result`, the 440-byte solution is copied.
+    let solved = pass.solve(&target, hold, b.cx, b.state);
+    let (end, at_limit) = match &solved {
+        Ok((end, at_limit)) => (end, *at_limit),
+        Err(_) => return solved.map(|_| ()),
+    };
+    mode.path(b, end, hold | at_limit)?;
+    mode.write(b, end)?;
+    pass.finish(b.cx, end, at_limit, b.state, b.out)?;
+    mode.after(b);
+    Ok(())
+}
+
 /// Where a block's results go.
 pub(super) struct Out<'a> {
     pub edits: &'a mut Vec<Edit>,
     pub summary: &'a mut Summary,
 }
 
+/// A block going through the pipeline: the pass, the block, the pass's state, and where
+/// its results go.
+pub(super) struct Block<'b, 'o, 'm> {
+    pub pass: &'b Pass<'m>,
+    pub cx: &'b Cx<'b, 'b>,
+    pub state: &'b mut State,
+    pub out: &'b mut Out<'o>,
+}
+
+impl<'b, 'o, 'm> Block<'b, 'o, 'm> {
+    /// The four, to work with each on its own.
+    pub fn parts(&mut self) -> (&'b Pass<'m>, &'b Cx<'b, 'b>, &mut State, &mut Out<'o>) {
+        (self.pass, self.cx, &mut *self.state, &mut *self.out)
+    }
+}
+
 /// What differs between modes: the stages of [`Pass::block`] a mode supplies.
 pub(super) trait Mode {
     /// The nominal axis values at the block's end, into `q`; false: the block is written as
     /// it is (its pose cannot be evaluated).
-    fn target(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        state: &mut State,
-        out: &mut Out<'_>,
-        q: &mut [f64; MAX_AXES],
-    ) -> Result<bool, Diagnostic>;
+    fn target(&mut self, b: &mut Block, q: &mut [f64; MAX_AXES]) -> Result<bool, Diagnostic>;
 
     /// Variables the solve holds in this mode, beyond the pass's own.
     fn hold(&self, _pass: &Pass<'_>) -> u32 {
@@ -117,30 +160,15 @@ pub(super) trait Mode {
 
     /// Keep the path within the tolerance: blocks inserted before the line. `hold`: the
     /// variables the block's solve held (beyond singular poses).
-    fn path(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        end: &Solution,
-        hold: u32,
-        state: &mut State,
-        out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic>;
+    fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic>;
 
     /// Write the block's words for `end`, and what the controller is told
     /// (`State::emitted`).
-    fn write(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        end: &Solution,
-        state: &mut State,
-        out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic>;
+    fn write(&mut self, b: &mut Block, end: &Solution) -> Result<(), Diagnostic>;
 
     /// After the block is recorded: what the controller does at the block's end beyond its
     /// words (a cycle's retract).
-    fn after(&mut self, _pass: &Pass<'_>, _state: &mut State) {}
+    fn after(&mut self, _b: &mut Block) {}
 }
 
 impl Pass<'_> {
@@ -151,50 +179,25 @@ impl Pass<'_> {
         state: &mut State,
         out: &mut Out<'_>,
     ) -> Result<(), Diagnostic> {
-        match cx.motion.kind {
-            MoveKind::Machine | MoveKind::Home => {
-                self.leave_coordinates(cx, state);
-                Ok(())
-            }
-            MoveKind::Cycle => self.run(&mut super::cycles::CycleMode::default(), cx, state, out),
-            MoveKind::Arc { clockwise } if state.modal.tcp => {
-                self.run(&mut super::tcp::TcpMode::arc(clockwise), cx, state, out)
-            }
-            MoveKind::Arc { clockwise } => {
-                self.run(&mut super::arcs::ArcMode::new(clockwise), cx, state, out)
-            }
-            MoveKind::Program if state.modal.tcp => {
-                self.run(&mut super::tcp::TcpMode::line(), cx, state, out)
-            }
-            MoveKind::Program => self.run(&mut super::axes::AxesMode::default(), cx, state, out),
-        }
-    }
-
-    /// The stages, in order.
-    fn run<M: Mode>(
-        &self,
-        mode: &mut M,
-        cx: &Cx<'_, '_>,
-        state: &mut State,
-        out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic> {
-        // Filled by the mode (an out-parameter: 128 bytes in a `Result` are copied twice).
-        let mut target = [0.0; MAX_AXES];
-        if !mode.target(self, cx, state, out, &mut target)? {
+        if matches!(cx.motion.kind, MoveKind::Machine | MoveKind::Home) {
+            self.leave_coordinates(cx, state);
             return Ok(());
         }
-        let hold = self.hold | mode.hold(self);
-        // Used where it lies: moved out of the `Result`, the 440-byte solution is copied.
-        let solved = self.solve(&target, hold, cx, state);
-        let (end, at_limit) = match &solved {
-            Ok((end, at_limit)) => (end, *at_limit),
-            Err(_) => return solved.map(|_| ()),
+        let mut b = Block {
+            pass: self,
+            cx,
+            state,
+            out,
         };
-        mode.path(self, cx, end, hold | at_limit, state, out)?;
-        mode.write(self, cx, end, state, out)?;
-        self.finish(cx, end, at_limit, state, out)?;
-        mode.after(self, state);
-        Ok(())
+        match cx.motion.kind {
+            MoveKind::Cycle => run(&mut super::cycles::CycleMode::default(), &mut b),
+            MoveKind::Arc { clockwise } if b.state.modal.tcp => {
+                run(&mut super::tcp::TcpMode::arc(clockwise), &mut b)
+            }
+            MoveKind::Arc { clockwise } => run(&mut super::arcs::ArcMode::new(clockwise), &mut b),
+            _ if b.state.modal.tcp => run(&mut super::tcp::TcpMode::line(), &mut b),
+            _ => run(&mut super::axes::AxesMode::default(), &mut b),
+        }
     }
 
     /// G53, G28, G30: the block stays as it is, and the axes it sends to machine positions

@@ -13,9 +13,8 @@ use super::{Pass, State};
 use crate::kinematics::MAX_AXES;
 use crate::kinematics::path::Piece;
 use crate::nc::edit::Editor;
-use crate::nc::number::{same_text, write_fixed};
+use crate::nc::number::write_fixed;
 use crate::nc::{TokenKind, Value};
-use crate::program::exact::{self, Position};
 use crate::program::gcode;
 use std::fmt::Write;
 
@@ -89,41 +88,7 @@ impl Pass<'_> {
             for i in gcode::carried_words(tokens, None) {
                 words.push(String::from_utf8_lossy(editor.text(i)).into_owned());
             }
-            for &v in &self.write_order {
-                let unit = self.unit(v, &state.modal);
-                let value = unit.of_mm(piece.q[v]);
-                let d = state.decimals[v].max(self.res_decimals(v, unit));
-                if state.modal.incremental {
-                    // The exact difference between two written absolute positions, as the
-                    // block's own increments are written: no drift.
-                    let d = d.min(exact::MAX_DECIMALS);
-                    let Some((k, e)) = exact::increment(state.written[v].units(), value, d, unit)
-                    else {
-                        continue;
-                    };
-                    if k == 0 {
-                        continue;
-                    }
-                    let mut number = String::new();
-                    exact::write_digits(k, e, &mut number);
-                    state.written[v] = state.written[v].add(exact::units(k, e, unit).unwrap_or(0));
-                    state.emitted[v] = exact::to_f64(state.written[v].units());
-                    words.push(style.word(self.letter(v), &number));
-                    continue;
-                }
-                if same_text(unit.of_mm(state.emitted[v]), value, d) {
-                    continue;
-                }
-                let mut number = String::new();
-                write_fixed(value, d, &mut number);
-                state.emitted[v] = number.parse::<f64>().map_or(piece.q[v], |x| unit.to_mm(x));
-                state.written[v] = Position::Decimal {
-                    value,
-                    decimals: d,
-                    unit,
-                };
-                words.push(style.word(self.letter(v), &number));
-            }
+            self.piece_words(&piece.q, state, &style, &mut words);
             if let Some(f) = f_word
                 && let TokenKind::Word(w) = &tokens[f].kind
                 && let Value::Number { value, decimals } = w.value

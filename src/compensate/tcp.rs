@@ -23,7 +23,7 @@
 //! more than the tolerance; an arc is replaced by straight TCP moves within half a micron
 //! of it, each end compensated. Inserted blocks are TCP blocks in the program's style.
 
-use super::pipeline::{Cx, Mode, Out};
+use super::pipeline::{Block, Cx, Mode, Out};
 use super::{INCH, Pass, State};
 use crate::diag::Diagnostic;
 use crate::kinematics::path::{MOVE_PIECES, PathTolerance};
@@ -128,25 +128,11 @@ fn code(state: &State) -> &'static str {
 }
 
 impl Mode for TcpMode {
-    fn target(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        state: &mut State,
-        out: &mut Out<'_>,
-        q: &mut [f64; MAX_AXES],
-    ) -> Result<bool, Diagnostic> {
+    fn target(&mut self, b: &mut Block, q: &mut [f64; MAX_AXES]) -> Result<bool, Diagnostic> {
+        let (pass, cx, state, out) = b.parts();
         let n = pass.kin.len();
         let code = code(state);
-        let first = cx
-            .motion
-            .axis_words
-            .iter()
-            .chain(&cx.motion.arc_words)
-            .flatten()
-            .map(|&i| cx.col(i))
-            .min()
-            .unwrap_or(0);
+        let first = cx.first_word_col();
         if state.modal.incremental {
             return Err(cx.refuse(first, format!("incremental moves (G91) under {code} cannot be compensated (program the TCP part in G90)")));
         }
@@ -285,15 +271,8 @@ impl Mode for TcpMode {
         self.hold
     }
 
-    fn path(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        end: &Solution,
-        hold: u32,
-        state: &mut State,
-        out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic> {
+    fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic> {
+        let (pass, cx, state, out) = b.parts();
         let Some(start) = self.start else {
             return Ok(());
         };
@@ -344,14 +323,8 @@ impl Mode for TcpMode {
         Ok(())
     }
 
-    fn write(
-        &mut self,
-        pass: &Pass<'_>,
-        cx: &Cx<'_, '_>,
-        end: &Solution,
-        state: &mut State,
-        out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic> {
+    fn write(&mut self, b: &mut Block, end: &Solution) -> Result<(), Diagnostic> {
+        let (pass, cx, state, out) = b.parts();
         let last = match self.end {
             Some(e) => e,
             None => self.written_end(pass, 1.0, end, state),

@@ -4,7 +4,7 @@ use super::pipeline::{Cx, Out};
 use super::{Pass, State, axis_order};
 use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
-use crate::nc::edit::Editor;
+use crate::nc::edit::{Editor, Style};
 use crate::nc::number::{same_text, write_fixed_value, write_scaled_bytes};
 use crate::program::exact::{self, Position};
 
@@ -106,8 +106,7 @@ impl Pass<'_> {
         state: &mut State,
         out: &mut Out<'_>,
     ) -> Result<(), Diagnostic> {
-        let axis_words = &cx.motion.axis_words;
-        let line = cx.line;
+        let (line, axis_words) = (cx.line, &cx.motion.axis_words);
         for &v in &self.write_order {
             let bit = 1u32 << v;
             let unit = self.unit(v, &state.modal);
@@ -187,6 +186,50 @@ impl Pass<'_> {
 }
 
 impl Pass<'_> {
+    /// The axis words of a block inserted before the line that takes the axes to `q`: a word
+    /// for each axis whose written value changes, in the usual order and `style`; in G91 the
+    /// exact difference between two written absolute positions, as the block's own
+    /// increments are written (no drift). Follows what the machine is told.
+    pub(super) fn piece_words(
+        &self,
+        q: &[f64; MAX_AXES],
+        state: &mut State,
+        style: &Style,
+        words: &mut Vec<String>,
+    ) {
+        for &v in &self.write_order {
+            let unit = self.unit(v, &state.modal);
+            let value = unit.of_mm(q[v]);
+            let d = state.decimals[v].max(self.res_decimals(v, unit));
+            let mut number = String::new();
+            if state.modal.incremental {
+                let d = d.min(exact::MAX_DECIMALS);
+                let Some((k, e)) = exact::increment(state.written[v].units(), value, d, unit)
+                else {
+                    continue;
+                };
+                if k == 0 {
+                    continue;
+                }
+                exact::write_digits(k, e, &mut number);
+                state.written[v] = state.written[v].add(exact::units(k, e, unit).unwrap_or(0));
+                state.emitted[v] = exact::to_f64(state.written[v].units());
+            } else {
+                if same_text(unit.of_mm(state.emitted[v]), value, d) {
+                    continue;
+                }
+                let x = write_fixed_value(value, d, &mut number);
+                state.emitted[v] = unit.to_mm(x);
+                state.written[v] = Position::Decimal {
+                    value,
+                    decimals: d,
+                    unit,
+                };
+            }
+            words.push(style.word(self.letter(v), &number));
+        }
+    }
+
     /// Add variable `v`'s word with `number` to a block that lacks it: in the usual order of
     /// axis words among the block's own, in the style of its neighbour.
     pub(super) fn insert_axis_word(

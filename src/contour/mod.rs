@@ -126,20 +126,7 @@ pub fn analyse(
     (trace_path, trace_text): (&str, &[u8]),
     options: &Options,
 ) -> crate::Result<Analysis> {
-    let start = match &options.tool_chain {
-        None => 0,
-        Some(name) => machine.tool_chain(name).ok_or_else(|| {
-            Error::Usage(format!(
-                "--tool-chain {name}: the machine file has no such tool chain; it has {}",
-                machine
-                    .tool_chains
-                    .iter()
-                    .map(|c| format!("`{}`", c.name))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ))
-        })?,
-    };
+    let start = machine.start_chain(options.tool_chain.as_deref())?;
     // Analysing, not writing: a value beyond a travel limit is what it is.
     let (moves, chain) = nominal_moves(machine, start, program, program_path, 20)?;
     let kin = Kinematics::new(machine, &ErrorModel::zero(machine), chain)

@@ -202,6 +202,27 @@ impl Machine {
         self.tool_chains.iter().position(|c| c.name == name)
     }
 
+    /// The tool chain a program starts in: the one `--tool-chain NAME` names, or the first.
+    pub fn start_chain(&self, name: Option<&str>) -> crate::Result<usize> {
+        let Some(name) = name else { return Ok(0) };
+        self.tool_chain(name).ok_or_else(|| {
+            crate::Error::Usage(if self.tool_chains.len() == 1 {
+                format!(
+                    "--tool-chain {name}: the machine file has a single `tool_chain`, so there is nothing to choose (leave the option out)"
+                )
+            } else {
+                format!(
+                    "--tool-chain {name}: the machine file has no such tool chain; it has {}",
+                    self.tool_chains
+                        .iter()
+                        .map(|c| format!("`{}`", c.name))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            })
+        })
+    }
+
     /// The variables of tool chain `chain`: the machine axes of the workpiece chain and that
     /// tool chain, in the machine file's axis order (the kinematics' variable order).
     pub fn variables(&self, chain: usize) -> Vec<usize> {
