@@ -31,7 +31,9 @@ impl Mode for AxesMode {
                 "an optional block (/) in incremental mode (G91) cannot be compensated: whether it runs shifts every later incremental move, and no correction is right for both settings of block delete (program the block in G90)".into(),
             ));
         }
-        state.previous = state.pos.nominal;
+        if pass.options.path.is_some() {
+            state.previous = state.pos.nominal;
+        }
         self.start_known = state.pos.programmed & !state.pos.unknown;
         pass.advance_nominal(cx, state, out)?;
         if state.pos.unknown & !pass.spindle == 0 {
@@ -121,7 +123,7 @@ impl Pass<'_> {
             cx.at,
             &mut state.units,
         )?;
-        for v in 0..n {
+        for v in (0..n).filter(|_| from_home != 0) {
             if from_home & (1 << v) != 0 {
                 out.summary
                     .note_incremental_from_home(self.axis_name(v), cx.line.number);

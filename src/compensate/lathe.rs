@@ -111,6 +111,12 @@ impl Compensator<'_> {
         let before = (state.modal.chain, state.modal.spindle);
         let was_tcp = state.modal.tcp.then_some(state.modal.tcp_vector);
         let read = self.reader.read(line, tokens, &mut state.modal, at, motion);
+        if (state.modal.chain, state.modal.spindle) == before {
+            // The usual block: the pass stays (a machine with one chain and no lathe never
+            // leaves it).
+            let moves = read?;
+            return self.follow_modes(state, was_tcp, at).map(|()| moves);
+        }
         // The chain and spindle mode change even when a later word of the block is refused.
         if state.modal.chain != before.0 && self.switch_chain(state, state.modal.chain) {
             summary.lathe_unknown = true;
@@ -135,18 +141,29 @@ impl Compensator<'_> {
         }
         state.pass = pass;
         let moves = read?;
-        if state.modal.motion != Some(Motion::Cycle) {
+        self.follow_modes(state, was_tcp, at).map(|()| moves)
+    }
+
+    /// Follow what a block read changed of the pass's modes: a cycle ended, tool-centre-
+    /// point control switched on (from `was_tcp`: off, or on with or without vectors).
+    fn follow_modes(
+        &self,
+        state: &mut State,
+        was_tcp: Option<bool>,
+        at: &dyn Fn(usize, String) -> Diagnostic,
+    ) -> Result<(), Diagnostic> {
+        if state.cycle.is_some() && state.modal.motion != Some(Motion::Cycle) {
             state.cycle = None;
         }
         if state.modal.tcp
             && was_tcp != Some(state.modal.tcp_vector)
-            && let Err(d) = self.passes[pass].enter_tcp(state, at)
+            && let Err(d) = self.passes[state.pass].enter_tcp(state, at)
         {
             state.modal.tcp = false;
             state.modal.tcp_vector = false;
             return Err(d);
         }
-        Ok(moves)
+        Ok(())
     }
 
     /// Park the axes of the active chain and bring in those of `chain`. True when an axis
