@@ -804,3 +804,30 @@ fn the_command_line_runs_a_program_with_g53_and_g28() {
     let c = check(&m, &e, &input, &written);
     assert!(c.poses >= 6 && c.untouched >= 7, "{c:?}");
 }
+
+#[test]
+fn numbers_past_any_machine_are_refused_where_they_stand() {
+    let huge = "9".repeat(310);
+    for (program, at, what) in [
+        (
+            format!("G0 X0 Y0 Z50\nG1 X{huge} F100\n"),
+            "p.nc:2:4",
+            "X is too large to be a number",
+        ),
+        (
+            "G0 X0 Y0 Z50\nG1 Y-2000000\n".to_string(),
+            "p.nc:2:4",
+            "Y is out of range",
+        ),
+        (
+            format!("G0 X0 Y0 Z50\nG2 X1 Y1 R{huge}\n"),
+            "p.nc:2:10",
+            "R is too large to be a number",
+        ),
+    ] {
+        let err = compensate(&program).unwrap_err();
+        assert!(err.contains(at) && err.contains(what), "{err}");
+    }
+    // Block and program numbers may be as long as a program needs.
+    compensate("O80000001\nN12000000 G0 X1 Y2 Z50\n").unwrap();
+}

@@ -11,6 +11,11 @@ use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
 use crate::nc::{self, Token, TokenKind, Value};
 
+/// The largest magnitude of a word's number (but block and program numbers): a kilometre,
+/// a thousand turns or a feed of a kilometre a minute are far beyond any machine; beyond
+/// this a number is a mistake.
+pub const MAX_WORD: f64 = 1e6;
+
 /// A located refusal: (byte offset in the line, message) → diagnostic.
 pub type At<'a> = &'a dyn Fn(usize, String) -> Diagnostic;
 
@@ -227,6 +232,24 @@ impl Reader<'_> {
             has_words = true;
             let letter = w.letter as char;
             let number = match w.value {
+                // Past the largest a word may hold (a number too long for a float is
+                // infinite): refused here, before it reaches the model.
+                Value::Number { value, .. }
+                    if (value.is_nan() || value.abs() > MAX_WORD)
+                        && !matches!(letter, 'N' | 'O') =>
+                {
+                    return Err(at(
+                        t.span.start,
+                        format!(
+                            "{letter} is {}: expected a number within ±{MAX_WORD:e} (mm, inch, degrees, a code or a feed)",
+                            if value.is_finite() {
+                                "out of range"
+                            } else {
+                                "too large to be a number"
+                            }
+                        ),
+                    ));
+                }
                 Value::Number { value, .. } => value,
                 Value::Expression => {
                     return Err(at(
