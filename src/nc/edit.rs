@@ -199,6 +199,27 @@ impl<'a> Editor<'a> {
         });
     }
 
+    /// Add the word `letter` + `number` after the block's last word, in its letter case,
+    /// with a space unless the block is packed.
+    pub fn append_word(&mut self, letter: u8, number: &str) {
+        let last = self
+            .tokens
+            .iter()
+            .rposition(|t| matches!(t.kind, TokenKind::Word(_)));
+        let lowercase = last.and_then(|i| self.word(i)).is_some_and(|w| w.lowercase);
+        let letter = if lowercase {
+            letter.to_ascii_lowercase()
+        } else {
+            letter.to_ascii_uppercase()
+        } as char;
+        let end = last.map_or(self.content.len(), |i| self.tokens[i].span.end);
+        let text = format!("{}{letter}{number}", self.style().separator);
+        self.edits.push(Edit {
+            at: end..end,
+            text: text.into(),
+        });
+    }
+
     /// Add words (letter, number) after the token ending at byte `end`, in the block's
     /// style.
     pub fn insert_words_at(&mut self, end: usize, words: &[(u8, &str)]) {

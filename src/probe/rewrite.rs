@@ -22,6 +22,7 @@ use super::{Direction, ProbeFrame, positive};
 use crate::diag::{Diagnostic, Error};
 use crate::kinematics::{Kinematics, Model};
 use crate::model::{AxisKind, ErrorModel, Machine};
+use crate::nc::edit::Editor;
 use crate::nc::number::{decimals_for, fixed, same_text};
 use crate::nc::{self, Edit, Token, TokenKind, Value};
 use crate::program::codes::{self, Code, MachineCodes};
@@ -618,7 +619,7 @@ impl Pass<'_, '_> {
                     ));
                 }
             };
-            edits.push(insert_word(line.content, tokens, b'F', &text));
+            Editor::new(line.content, tokens, edits).append_word(b'F', &text);
             summary.restored.push(line.number);
             if !optional {
                 state.restore = None;
@@ -845,25 +846,19 @@ impl Pass<'_, '_> {
         let new_value = speed / unit;
         let (edit, written) = match f_word {
             Some(i) => {
-                let TokenKind::Word(w) = &tokens[i].kind else {
-                    unreachable!()
-                };
                 if same_text(old_value, new_value, d) {
                     (FeedEdit::Unchanged, old_value)
                 } else {
                     let text = fixed(new_value, d);
                     let written = text.parse().unwrap_or(new_value);
-                    edits.push(Edit {
-                        at: w.value_span.clone(),
-                        text: text.into(),
-                    });
+                    Editor::new(line.content, tokens, edits).replace_number(i, text);
                     (FeedEdit::Changed, written)
                 }
             }
             None => {
                 let text = fixed(new_value, d);
                 let written = text.parse().unwrap_or(new_value);
-                edits.push(insert_word(line.content, tokens, b'F', &text));
+                Editor::new(line.content, tokens, edits).append_word(b'F', &text);
                 (FeedEdit::Added, written)
             }
         };
@@ -989,27 +984,4 @@ pub fn tool_frame(machine: &Machine, chain: usize, kin: &Kinematics, q: &[f64]) 
     let w = rotation(&machine.workpiece_chain);
     let t = rotation(&machine.tool_chains[chain].axes);
     ProbeFrame::from_rotation(&(w.inverse() * t))
-}
-
-/// An edit adding `letter` `number` after the block's last word, in its style: letter
-/// case of that word, packed (no space) if the block's words are packed.
-fn insert_word(content: &[u8], tokens: &[Token], letter: u8, number: &str) -> Edit {
-    let last = tokens
-        .iter()
-        .rposition(|t| matches!(t.kind, TokenKind::Word(_)))
-        .unwrap_or(0);
-    let lowercase = matches!(&tokens[last].kind, TokenKind::Word(w) if w.lowercase);
-    let packed = tokens.windows(2).any(|w| {
-        matches!(w[0].kind, TokenKind::Word(_)) && matches!(w[1].kind, TokenKind::Word(_))
-    });
-    let letter = if lowercase {
-        letter.to_ascii_lowercase()
-    } else {
-        letter
-    } as char;
-    let end = tokens.get(last).map_or(content.len(), |t| t.span.end);
-    Edit {
-        at: end..end,
-        text: format!("{}{letter}{number}", if packed { "" } else { " " }).into(),
-    }
 }
