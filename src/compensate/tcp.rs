@@ -971,37 +971,19 @@ impl Pass<'_> {
         } else {
             "G43.4"
         };
-        if self.turning {
-            return Err(at(
-                0,
-                format!(
-                    "{code} cannot be compensated while turning: the spindle turns or has not been positioned (position it with M19 or a C word first)"
-                ),
-            ));
-        }
-        if state.modal.diameter {
-            return Err(at(
-                0,
-                format!(
-                    "{code} in diameter mode (G7) cannot be compensated (program it in radius mode, G8)"
-                ),
-            ));
-        }
-        if self.tip_vars().is_none() {
-            return Err(at(
-                0,
-                format!(
-                    "{code} needs linear axes driven by X, Y and Z words for the tool tip; this machine has none"
-                ),
-            ));
-        }
-        if state.modal.incremental {
-            return Err(at(
-                0,
-                format!(
-                    "{code} in incremental mode (G91) cannot be compensated (program the TCP part in G90)"
-                ),
-            ));
+        let refusal = if self.turning {
+            "cannot be compensated while turning: the spindle turns or has not been positioned (position it with M19 or a C word first)"
+        } else if state.modal.diameter {
+            "in diameter mode (G7) cannot be compensated (program it in radius mode, G8)"
+        } else if self.tip_vars().is_none() {
+            "needs linear axes driven by X, Y and Z words for the tool tip; this machine has none"
+        } else if state.modal.incremental {
+            "in incremental mode (G91) cannot be compensated (program the TCP part in G90)"
+        } else {
+            ""
+        };
+        if !refusal.is_empty() {
+            return Err(at(0, format!("{code} {refusal}")));
         }
         let n = self.kin.len();
         let (nominal, _) =
