@@ -195,6 +195,13 @@ impl Reader<'_> {
         let words = &self.chains[state.chain];
         let n = words.letters.len();
         let optional = is_optional(tokens);
+        // A code's refusal: its text as the program wrote it, then why.
+        let refuse_code = |t: &Token, why: String| {
+            at(
+                t.span.start,
+                format!("{} {why}", code_text(line.content, t)),
+            )
+        };
         // Written in place: the block's motion is 340 bytes.
         out.axis_words = [None; MAX_AXES];
         out.arc_words = [None; 4];
@@ -344,13 +351,7 @@ impl Reader<'_> {
                             if let Some(prev) = state.work_offset
                                 && prev != code
                             {
-                                return Err(at(
-                                    t.span.start,
-                                    format!(
-                                        "{} switches the work offset; the machine file describes one program zero, so a program must keep to one work offset",
-                                        code_text(line.content, t)
-                                    ),
-                                ));
+                                return Err(refuse_code(t, "switches the work offset; the machine file describes one program zero, so a program must keep to one work offset".into()));
                             }
                             state.work_offset = Some(code);
                         }
@@ -362,34 +363,16 @@ impl Reader<'_> {
                         Code::CycleReturn { initial } => state.retract_to_initial = initial,
                         Code::Diameter { diameter } => {
                             if diameter && self.machine.lathe.is_none() {
-                                return Err(at(
-                                    t.span.start,
-                                    format!(
-                                        "{} cannot be compensated: lathe diameter mode needs a [lathe] table in the machine file (the spindle that turns the part)",
-                                        code_text(line.content, t)
-                                    ),
-                                ));
+                                return Err(refuse_code(t, "cannot be compensated: lathe diameter mode needs a [lathe] table in the machine file (the spindle that turns the part)".into()));
                             }
                             if optional && diameter != state.diameter {
-                                return Err(at(
-                                    t.span.start,
-                                    format!(
-                                        "{} in an optional block (/) cannot be compensated: whether the block runs would decide how every later X word is read (move it out of the optional block)",
-                                        code_text(line.content, t)
-                                    ),
-                                ));
+                                return Err(refuse_code(t, "in an optional block (/) cannot be compensated: whether the block runs would decide how every later X word is read (move it out of the optional block)".into()));
                             }
                             state.diameter = diameter;
                         }
                         Code::Distance { incremental } => {
                             if optional && incremental != state.incremental {
-                                return Err(at(
-                                    t.span.start,
-                                    format!(
-                                        "{} in an optional block (/) cannot be compensated: whether the block runs would decide how every later axis word is read (move the distance mode out of the optional block)",
-                                        code_text(line.content, t)
-                                    ),
-                                ));
+                                return Err(refuse_code(t, "in an optional block (/) cannot be compensated: whether the block runs would decide how every later axis word is read (move the distance mode out of the optional block)".into()));
                             }
                             state.incremental = incremental;
                         }
@@ -410,13 +393,7 @@ impl Reader<'_> {
                 }
                 'M' => match self.code(b'M', (number * 10.0).round() as i64) {
                     Code::Subprogram => {
-                        return Err(at(
-                            t.span.start,
-                            format!(
-                                "{} cannot be compensated: a subprogram call or return (M97/M98/M99) is not supported",
-                                code_text(line.content, t)
-                            ),
-                        ));
+                        return Err(refuse_code(t, "cannot be compensated: a subprogram call or return (M97/M98/M99) is not supported".into()));
                     }
                     Code::TcpOn(_) => {
                         tcp_on = true;
@@ -424,22 +401,13 @@ impl Reader<'_> {
                     }
                     Code::TcpOff => tcp_off = true,
                     Code::Unsupported(what) => {
-                        return Err(at(
-                            t.span.start,
-                            format!(
-                                "{} cannot be compensated: {what} is not supported",
-                                code_text(line.content, t)
-                            ),
+                        return Err(refuse_code(
+                            t,
+                            format!("cannot be compensated: {what} is not supported"),
                         ));
                     }
                     Code::Unknown => {
-                        return Err(at(
-                            t.span.start,
-                            format!(
-                                "{} cannot be compensated: this M code is not known to nccomp, and what it does to the machine's motion cannot be guessed (expected a standard M code; a machine file may name the machine's own codes under [codes] as `harmless` or as `tcp_on`/`tcp_off` switches)",
-                                code_text(line.content, t)
-                            ),
-                        ));
+                        return Err(refuse_code(t, "cannot be compensated: this M code is not known to nccomp, and what it does to the machine's motion cannot be guessed (expected a standard M code; a machine file may name the machine's own codes under [codes] as `harmless` or as `tcp_on`/`tcp_off` switches)".into()));
                     }
                     _ => {}
                 },
