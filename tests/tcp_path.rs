@@ -444,3 +444,44 @@ fn an_arc_under_tcp_becomes_straight_tcp_moves_on_its_circle() {
         "{worst} mm off the circle"
     );
 }
+
+#[test]
+fn g43_ends_tcp_and_tcp_notes_axes_it_assumed_at_home() {
+    let machine = machine();
+    // G43 H1 under G43.4 ends TCP (one modal group): X Y Z are machine axes again, so the
+    // block after it is compensated as machine axes, not as a tip.
+    let program = "G21 G90\nG0 X10 Y5 Z150 A0 C0\nG43.4 H1\nG1 X-20 Y-10 Z5 A-30 C20 F500\nG43 H1\nG1 X12.5 Y3 Z40 A-30 C20\nM30\n";
+    let comp = Compensator::new(&machine, &errors(&machine), Options::default()).unwrap();
+    let mut out = Vec::new();
+    comp.run(program.as_bytes(), "p.nc", &mut out).unwrap();
+    let written = String::from_utf8(out).unwrap();
+    let last_move = written.lines().nth(5).unwrap();
+    let kin = Kinematics::new(&machine, &errors(&machine), 0).unwrap();
+    let q: Vec<f64> = ["X", "Y", "Z", "A", "C"]
+        .iter()
+        .map(|l| {
+            last_move
+                .split_whitespace()
+                .find_map(|w| w.strip_prefix(l))
+                .unwrap()
+                .parse()
+                .unwrap()
+        })
+        .collect();
+    // The machine-axis reading of the block: the real machine at the written axes lands
+    // where the ideal one would at the programmed axes.
+    let (real, _) = kin.pose(Model::Actual, &q, L);
+    let (ideal, _) = kin.pose(Model::Nominal, &[12.5, 3.0, 40.0, -30.0, 20.0], L);
+    assert!((real.p - ideal.p).norm() < 2e-4, "{written}");
+    // TCP switched on before the program set X and Y, and a block that leaves them out:
+    // the tip's X and Y are where the axes' home values put it, and the summary says so.
+    let program = "G21 G90\nG43.4 H1\nG1 Z5 A-30 C20 F500\nM30\n";
+    let mut out = Vec::new();
+    let summary = comp.run(program.as_bytes(), "p.nc", &mut out).unwrap();
+    let assumed: Vec<&str> = summary
+        .assumed_home
+        .iter()
+        .map(|(a, _)| a.as_str())
+        .collect();
+    assert_eq!(assumed, ["X", "Y"]);
+}
