@@ -5,8 +5,8 @@
 //! Path: a G1 from a known start is split where its compensated path strays ([`super::split`]).
 //! Write: the axis words ([`super::writing`]).
 
-use super::pipeline::{Block, Cx, Mode, Out};
-use super::{Pass, State, TRAVEL_LIMIT};
+use super::TRAVEL_LIMIT;
+use super::pipeline::{Block, Mode};
 use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Solution};
 use crate::program::exact;
@@ -22,8 +22,7 @@ pub(super) struct AxesMode {
 
 impl Mode for AxesMode {
     fn target(&mut self, b: &mut Block, q: &mut [f64; MAX_AXES]) -> Result<bool, Diagnostic> {
-        let (pass, cx, state, out) = b.parts();
-        let n = pass.kin.len();
+        let (pass, cx, state) = (b.pass, b.cx, &mut *b.state);
         let optional = cx.motion.optional;
         if optional && state.modal.incremental {
             return Err(cx.refuse(
@@ -35,7 +34,9 @@ impl Mode for AxesMode {
             state.previous = state.pos.nominal;
         }
         self.start_known = state.pos.programmed & !state.pos.unknown;
-        pass.advance_nominal(cx, state, out)?;
+        Self::advance(b)?;
+        let (pass, cx, state, out) = b.parts();
+        let n = pass.kin.len();
         if state.pos.unknown & !pass.spindle == 0 {
             *q = state.pos.nominal;
             return Ok(true);
@@ -101,21 +102,17 @@ impl Mode for AxesMode {
     }
 }
 
-impl Pass<'_> {
+impl AxesMode {
     /// Follow a G0/G1 block's axis words: `state.pos.nominal` (and its exact twin) become the
     /// block's programmed end, absolute or incremental, in mm and degrees, and
     /// `state.units` each G91 word's increment exactly (zeros elsewhere). A programmed value
     /// outside the travel is refused unless limit violations are allowed.
-    pub(super) fn advance_nominal(
-        &self,
-        cx: &Cx<'_, '_>,
-        state: &mut State,
-        out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic> {
-        let n = self.kin.len();
+    fn advance(b: &mut Block) -> Result<(), Diagnostic> {
+        let (pass, cx, state, out) = b.parts();
+        let n = pass.kin.len();
         let axis_words = &cx.motion.axis_words;
         let from_home = state.pos.advance(
-            &self.axes,
+            &pass.axes,
             cx.line.content,
             cx.tokens,
             cx.motion,
@@ -126,7 +123,7 @@ impl Pass<'_> {
         for v in (0..n).filter(|_| from_home != 0) {
             if from_home & (1 << v) != 0 {
                 out.summary
-                    .note_incremental_from_home(self.axis_name(v), cx.line.number);
+                    .note_incremental_from_home(pass.axis_name(v), cx.line.number);
             }
         }
         // Programmed values outside the travel are the program's own fault.
@@ -134,9 +131,9 @@ impl Pass<'_> {
             if state.pos.unknown & (1 << v) != 0 {
                 continue;
             }
-            if let Some([lo, hi]) = self.travel(v)
+            if let Some([lo, hi]) = pass.travel(v)
                 && !(lo..=hi).contains(&state.pos.nominal[v])
-                && !self.options.allow_limit_violations
+                && !pass.options.allow_limit_violations
             {
                 let col = word.map_or(0, |i| cx.col(i));
                 return Err(cx
@@ -144,7 +141,7 @@ impl Pass<'_> {
                         col,
                         format!(
                             "axis {} is programmed to {:.4}, outside its travel {lo} … {hi} (use --allow-limit-violations to compensate it anyway)",
-                            self.axis_name(v),
+                            pass.axis_name(v),
                             state.pos.nominal[v]
                         ),
                     )

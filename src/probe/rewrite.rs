@@ -199,7 +199,7 @@ fn classify(code: Code) -> G {
         Code::CancelCycle => CycleCancel,
         Code::DataSetting(_) => Data,
         Code::ReturnHome | Code::SetReference | Code::MachineCoordinates => Lost,
-        Code::WorkOffset(code10) => WorkOffset(code10),
+        Code::WorkOffset(number) => WorkOffset(number),
         Code::ExtendedWorkOffset => WorkOffset(541),
         Code::MacroCall => Call,
         Code::ModalMacro => Refused("a modal macro call (G66)"),
