@@ -831,3 +831,27 @@ fn numbers_past_any_machine_are_refused_where_they_stand() {
     // Block and program numbers may be as long as a program needs.
     compensate("O80000001\nN12000000 G0 X1 Y2 Z50\n").unwrap();
 }
+
+#[test]
+fn another_controls_program_is_named_not_misread() {
+    for (program, what) in [
+        (
+            "0 BEGIN PGM W5270 MM\n1 L X+10 Y-5 R0 FMAX\n",
+            "p.nc:1:1: this looks like a Heidenhain TNC conversational program",
+        ),
+        (
+            "N10 DEF REAL _X_HOME\nN20 G0 Z=_Z_HOME\n",
+            "p.nc:1:1: this looks like a Sinumerik program",
+        ),
+        (
+            "N10 TRAORI\n",
+            "p.nc:1:1: this looks like a Sinumerik program",
+        ),
+    ] {
+        let err = compensate(program).unwrap_err();
+        assert!(err.contains(what), "{err}");
+    }
+    // A G-code block's comment is not a dialect: LinuxCNC's (MSG, …) stays G-code.
+    let err = compensate("G0 X0 Y0 Z50\nG41 (MSG, cutter comp)\n").unwrap_err();
+    assert!(err.contains("G41 cannot be compensated"), "{err}");
+}

@@ -26,6 +26,74 @@ pub fn code_text(content: &[u8], t: &Token) -> String {
         .to_string()
 }
 
+/// The dialect a block of another control's language is written in, from words no G-code
+/// block has: Heidenhain's conversational keywords after the block number, Sinumerik's
+/// declarations, instructions and assignments to named variables.
+fn foreign_dialect(content: &[u8]) -> Option<&'static str> {
+    let text = String::from_utf8_lossy(content);
+    let body = text
+        .trim_start()
+        .trim_start_matches(|c: char| c.is_ascii_digit())
+        .trim_start();
+    const HEIDENHAIN: [&str; 14] = [
+        "BEGIN PGM",
+        "END PGM",
+        "BLK FORM",
+        "TOOL CALL",
+        "TOOL DEF",
+        "CYCL DEF",
+        "CYCL CALL",
+        "CALL LBL",
+        "LBL ",
+        "PLANE ",
+        "FUNCTION ",
+        "FN ",
+        "L ",
+        "CC ",
+    ];
+    if text.starts_with(|c: char| c.is_ascii_digit())
+        && HEIDENHAIN.iter().any(|k| body.starts_with(k))
+    {
+        return Some("a Heidenhain TNC conversational program (`BEGIN PGM`, `L X+…`)");
+    }
+    // Without comments: `(MSG, …)` is LinuxCNC's, not a Sinumerik instruction.
+    let mut code = String::new();
+    let mut depth = 0;
+    for c in body.chars().take_while(|&c| c != ';') {
+        match c {
+            '(' => depth += 1,
+            ')' => depth = (depth - 1).max(0),
+            _ if depth == 0 => code.push(c),
+            _ => {}
+        }
+    }
+    let body = code
+        .trim_start_matches('N')
+        .trim_start_matches(|c: char| c.is_ascii_digit());
+    let words = body.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_'));
+    const SINUMERIK: [&str; 14] = [
+        "DEF",
+        "MSG",
+        "TRAORI",
+        "TRAFOOF",
+        "SUPA",
+        "CYCLE800",
+        "CYCLE81",
+        "CYCLE83",
+        "WORKPIECE",
+        "STOPRE",
+        "MCALL",
+        "ATRANS",
+        "AROT",
+        "FNORM",
+    ];
+    let assigns_named = body.contains("=_") || body.trim_start().starts_with('_');
+    if assigns_named || words.clone().any(|w| SINUMERIK.contains(&w)) {
+        return Some("a Sinumerik program (`DEF`, `TRAORI`, `CYCLE800`, `X=_NAME`)");
+    }
+    None
+}
+
 /// The block starts with a block delete `/`.
 fn is_optional(tokens: &[Token]) -> bool {
     tokens
@@ -47,8 +115,18 @@ impl Reader<'_> {
         at: At<'_>,
         motion: &mut BlockMotion,
     ) -> Result<bool, Diagnostic> {
-        self.select(line, tokens, modal, at)?;
-        self.read_words(line, tokens, modal, at, motion)
+        self.select(line, tokens, modal, at)
+            .and_then(|()| self.read_words(line, tokens, modal, at, motion))
+            .map_err(|d| match foreign_dialect(line.content) {
+                // A refusal of another dialect's block says what the program is.
+                Some(dialect) => at(
+                    0,
+                    format!(
+                        "this looks like {dialect}: nccomp reads ISO G-code programs (Fanuc, Haas, LinuxCNC style); this dialect is not read yet (expected G-code such as G1 X10.5)"
+                    ),
+                ),
+                None => d,
+            })
     }
 
     /// Follow the block's T word and spindle codes: the tool chain and spindle mode the
