@@ -11,6 +11,9 @@ use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
 use crate::nc::{self, Token, TokenKind, Value};
 
+/// The UTF-8 byte-order mark.
+const BOM: &[u8] = b"\xEF\xBB\xBF";
+
 /// The largest magnitude of a word's number (but block and program numbers): a kilometre,
 /// a thousand turns or a feed of a kilometre a minute are far beyond any machine; beyond
 /// this a number is a mistake.
@@ -123,6 +126,14 @@ impl Reader<'_> {
                     0,
                     format!(
                         "this looks like {dialect}: nccomp reads ISO G-code programs (Fanuc, Haas, LinuxCNC style); this dialect is not read yet (expected G-code such as G1 X10.5)"
+                    ),
+                ),
+                // Lines ended by CR alone run together into one.
+                None if line.content.contains(&b'\r') => at(
+                    line.content.iter().position(|&b| b == b'\r').unwrap_or(0),
+                    format!(
+                        "{} (this line holds carriage returns (CR) without line feeds: expected lines that end in LF or CR LF)",
+                        d.message
                     ),
                 ),
                 None => d,
@@ -308,6 +319,16 @@ impl Reader<'_> {
         for (i, t) in tokens.iter().enumerate() {
             let w = match &t.kind {
                 TokenKind::Word(w) => w,
+                // A UTF-8 byte-order mark before the program's first byte says only how the
+                // file is encoded.
+                TokenKind::Other
+                    if line.offset == 0
+                        && i == 0
+                        && t.span == (0..3)
+                        && line.content.starts_with(BOM) =>
+                {
+                    continue;
+                }
                 TokenKind::Other => {
                     other_text.get_or_insert(t.span.start);
                     continue;
