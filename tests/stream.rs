@@ -357,3 +357,42 @@ fn tool_changes_between_chains_stream_as_they_run_in_memory() {
         assert_same(&comp, src.as_bytes(), 1 << 12, &format!("split {split}"));
     }
 }
+
+#[test]
+fn a_line_longer_than_a_megabyte_is_refused_before_it_is_read_whole() {
+    let (machine, errors) = fixture("ac_trunnion");
+    let long = "X1 ".repeat(800_000);
+    let program = format!("G21 G90\nG0 X1 Y2 Z50 A0 C0\n{long}\nM30\n");
+    for threads in [1, 2] {
+        let mut comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+        comp.set_threads(threads);
+        let mut out = Vec::new();
+        let err = comp
+            .run_stream(program.as_bytes(), "long.nc", &mut out, "out.nc")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("long.nc:3:1: this line is longer than 1 MiB"),
+            "{threads} threads: {err}"
+        );
+    }
+    // In memory, too (`check`, `report`).
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let err = comp
+        .run(program.as_bytes(), "long.nc", &mut Vec::new())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("long.nc:3:1: this line is longer than 1 MiB"),
+        "{err}"
+    );
+    // The zero model reads nothing: the bytes go straight through.
+    let zero = nccomp::model::ErrorModel::zero(&machine);
+    let comp = Compensator::new(&machine, &zero, Options::default()).unwrap();
+    let mut out = Vec::new();
+    let summary = comp
+        .run_stream(program.as_bytes(), "long.nc", &mut out, "out.nc")
+        .unwrap();
+    assert_eq!(out, program.as_bytes());
+    assert_eq!(summary.lines, 4);
+}

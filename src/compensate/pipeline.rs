@@ -346,7 +346,19 @@ impl Pass<'_> {
                 }
             }
         }
-        self.record(cx.line.number, end, state, out.summary);
+        let after = self.record(cx.line.number, end, state, out.summary);
+        // A correction never makes the tip worse: where it would, the machine file or the
+        // error model is not sound at this pose (a degenerate geometry, an absurd value).
+        if after > end.start_position_error.max(1e-3) || after.is_nan() {
+            return Err(cx.refuse(
+                cx.first_col(),
+                format!(
+                    "the compensated values would put the tip {:.3} µm from where the program puts it, more than without compensation ({:.3} µm): the machine file (its geometry, its resolution) or the error file is not sound at this pose",
+                    after * 1e3,
+                    end.start_position_error * 1e3
+                ),
+            ));
+        }
         for v in 0..n {
             if at_limit & (1 << v) != 0 {
                 out.summary.note_at_limit(self.axis_name(v), cx.line.number);
@@ -356,8 +368,15 @@ impl Pass<'_> {
     }
 
     /// Count a compensated block (or inserted piece) and record what the model predicts
-    /// for it, at the axis values the controller is now told (`State::emitted`).
-    pub(super) fn record(&self, line: usize, sol: &Solution, state: &State, summary: &mut Summary) {
+    /// for it, at the axis values the controller is now told (`State::emitted`); the tip's
+    /// distance there from the target (mm).
+    pub(super) fn record(
+        &self,
+        line: usize,
+        sol: &Solution,
+        state: &State,
+        summary: &mut Summary,
+    ) -> f64 {
         let n = self.kin.len();
         let (after, beyond) = self.kin.pose_near(
             Model::Actual,
@@ -381,5 +400,6 @@ impl Pass<'_> {
                 summary.note_held(self.axis_name(v));
             }
         }
+        ap
     }
 }

@@ -19,6 +19,54 @@ use crate::program::BlockMotion;
 /// Bytes read at a time; a longer line makes the buffer grow to hold it.
 pub(super) const CHUNK: usize = 256 * 1024;
 
+/// The longest line a program may have: no NC block is a megabyte, and the pass keeps a
+/// token for every few bytes of a line (a 110 MB line took 4.9 GB).
+pub const MAX_LINE: usize = 1 << 20;
+
+/// A line longer than [`MAX_LINE`], found while reading: its number and how it starts.
+#[derive(Debug)]
+struct LineTooLong {
+    line: usize,
+    start: String,
+}
+
+impl std::fmt::Display for LineTooLong {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "line {} is longer than {} bytes", self.line, MAX_LINE)
+    }
+}
+
+impl std::error::Error for LineTooLong {}
+
+/// The refusal of a line longer than [`MAX_LINE`] (`content`'s first bytes shown).
+fn too_long(path: &str, line: usize, content: &str) -> Diagnostic {
+    Diagnostic {
+        path: path.to_string(),
+        line,
+        column: 1,
+        message: format!(
+            "this line is longer than {} MiB: expected NC blocks (no program needs a line this long; is the file a program, with line endings?)",
+            MAX_LINE >> 20
+        ),
+        source_line: content.to_string(),
+        code: None,
+    }
+}
+
+/// A read error of the stream `input_name`, or the refusal of its over-long line.
+fn read_failure(input_name: &str, source: std::io::Error) -> Error {
+    match source
+        .get_ref()
+        .and_then(|e| e.downcast_ref::<LineTooLong>())
+    {
+        Some(long) => Error::Inputs(vec![too_long(input_name, long.line, &long.start)]),
+        None => Error::Io {
+            path: input_name.to_string(),
+            source,
+        },
+    }
+}
+
 /// The pass over one program: its modal state, scratch buffers reused from line to line,
 /// and what it has found so far.
 pub(super) struct Run<'c, 'm> {
@@ -61,6 +109,11 @@ impl<'c, 'm> Run<'c, 'm> {
         let state = &mut self.state;
         let summary = &mut self.summary;
         summary.lines += 1;
+        if line.content.len() > MAX_LINE {
+            let start = String::from_utf8_lossy(&line.content[..120]).into_owned();
+            self.errors.push(too_long(path, line.number, &start));
+            return self.errors.len() < comp.passes[state.pass].options.max_errors;
+        }
         nc::parse_line(line.content, &mut self.tokens);
         // The texts of the last line's edits hold their allocations for this line's.
         // (A few: edits made elsewhere do not take from them.)
@@ -215,10 +268,10 @@ impl Compensator<'_> {
             loop {
                 // Keep the helper a chunk ahead of the pass.
                 while reading && in_flight < 2 {
-                    match chunks.next().map_err(|source| Error::Io {
-                        path: input_name.to_string(),
-                        source,
-                    })? {
+                    match chunks
+                        .next()
+                        .map_err(|source| read_failure(input_name, source))?
+                    {
                         Some((chunk, before, offset)) => {
                             let (mut bytes, ahead) = spare.pop().unwrap_or_default();
                             bytes.clear();
@@ -298,6 +351,47 @@ fn in_line(path: &str, line: &nc::Line<'_>, offset: usize, message: String) -> D
     }
 }
 
+/// The zero model's pass: the bytes straight through, a chunk at a time whatever the lines
+/// (nothing is parsed, so no line is too long), and the lines counted.
+fn copy_through(
+    mut input: impl Read,
+    input_name: &str,
+    mut output: impl Write,
+    output_name: &str,
+) -> crate::Result<Summary> {
+    let mut buf = vec![0u8; CHUNK];
+    let (mut lines, mut last) = (0usize, b'\n');
+    loop {
+        let k = match input.read(&mut buf) {
+            Ok(0) => break,
+            Ok(k) => k,
+            Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+            Err(source) => {
+                return Err(Error::Io {
+                    path: input_name.to_string(),
+                    source,
+                });
+            }
+        };
+        lines += memchr::memchr_iter(b'\n', &buf[..k]).count();
+        last = buf[k - 1];
+        output.write_all(&buf[..k]).map_err(|source| Error::Io {
+            path: output_name.to_string(),
+            source,
+        })?;
+    }
+    output.flush().map_err(|source| Error::Io {
+        path: output_name.to_string(),
+        source,
+    })?;
+    // A last line without its ending counts too.
+    Ok(Summary {
+        zero_model: true,
+        lines: lines + usize::from(last != b'\n'),
+        ..Summary::default()
+    })
+}
+
 /// Reads a stream in chunks cut after their last line ending.
 struct Chunks<R> {
     input: R,
@@ -355,7 +449,18 @@ impl<R: Read> Chunks<R> {
                 return Ok(Some((chunk, before, self.offset)));
             }
             if self.filled == self.buf.len() {
-                // A line longer than the buffer.
+                // A line longer than the buffer; past `MAX_LINE` it is refused before it
+                // is read whole (a pass keeps a token for every few bytes of a line).
+                if self.buf.len() >= MAX_LINE {
+                    let start = &self.buf[..self.filled.min(120)];
+                    return Err(std::io::Error::new(
+                        ErrorKind::InvalidData,
+                        LineTooLong {
+                            line: self.lines + 1,
+                            start: String::from_utf8_lossy(start).into_owned(),
+                        },
+                    ));
+                }
                 self.buf.resize(self.buf.len() * 2, 0);
             }
             match self.input.read(&mut self.buf[self.filled..]) {
@@ -384,28 +489,15 @@ impl Compensator<'_> {
         mut output: impl Write,
         output_name: &str,
     ) -> crate::Result<Summary> {
-        let read_error = |source| Error::Io {
-            path: input_name.to_string(),
-            source,
-        };
+        let read_error = |source| read_failure(input_name, source);
         let write_error = |source| Error::Io {
             path: output_name.to_string(),
             source,
         };
-        let mut chunks = Chunks::new(input);
         if self.zero_model {
-            let mut lines = 0;
-            while let Some((chunk, before, _)) = chunks.next().map_err(read_error)? {
-                output.write_all(chunk).map_err(write_error)?;
-                lines = before + nc::lines(chunk).count();
-            }
-            output.flush().map_err(write_error)?;
-            return Ok(Summary {
-                zero_model: true,
-                lines,
-                ..Summary::default()
-            });
+            return copy_through(input, input_name, output, output_name);
         }
+        let mut chunks = Chunks::new(input);
         let mut pass = Run::new(self, false);
         let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
         if self.threads > 1 {
