@@ -245,3 +245,29 @@ fn a_rotary_value_far_beyond_travel_does_not_explode_the_move() {
         summary.blocks_added
     );
 }
+
+#[test]
+fn a_move_through_the_singular_pose_names_the_held_axis() {
+    // A swings through 0 (the tool along C): the pieces at and near A = 0 hold C, and the
+    // summary names it (it once printed "tool along axis )" when only pieces were held).
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = random_errors(&machine, &mut Lcg(17));
+    let comp = Compensator::new(
+        &machine,
+        &errors,
+        Options {
+            path: Some(PathTolerance::default()),
+            ..Options::default()
+        },
+    )
+    .unwrap();
+    let program = "G0 X10 Y5 Z10 A-20 C30\nG1 X12 A20 F1000\n";
+    let mut out = Vec::new();
+    let summary = comp.run(program.as_bytes(), "p.nc", &mut out).unwrap();
+    assert!(summary.singular_blocks > 0, "{summary:?}");
+    assert_eq!(summary.held_axes, ["C"]);
+    assert!(
+        summary.to_string().contains("(tool along axis C)"),
+        "{summary}"
+    );
+}
