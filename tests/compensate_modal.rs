@@ -870,3 +870,30 @@ fn a_byte_order_mark_is_kept_and_cr_only_lines_are_named() {
         "{err}"
     );
 }
+
+#[test]
+fn smoothing_modes_pass_and_a_final_m99_ends_the_program() {
+    // Fanuc's high-speed and look-ahead modes, Haas's smoothing: no block end moves.
+    let program =
+        "G05P10000\nG05.1 Q1\nG08 P1\nG187 P2 E0.01\nG0 X1 Y2 Z50 A0 C0\nG1 X5\nG05P0\nM99\n";
+    let (out, summary) = compensate(program).unwrap();
+    assert_eq!(out.lines().count(), program.lines().count());
+    assert!(
+        out.starts_with("G05P10000\nG05.1 Q1\nG08 P1\nG187 P2 E0.01\n"),
+        "{out}"
+    );
+    assert!(out.ends_with("G05P0\nM99\n"), "{out}");
+    assert_eq!(summary.motion_blocks, 2);
+    // The same numbers with axis words are LinuxCNC's splines: refused.
+    let err = compensate("G0 X0 Y0 Z50\nG5 I1 J1 P1 Q1 X5 Y5\n").unwrap_err();
+    assert!(err.contains("spline interpolation"), "{err}");
+    // Nothing after M99 belongs to the program that ran.
+    let err = compensate("G0 X0 Y0 Z50\nM99\nG1 X5\n").unwrap_err();
+    assert!(
+        err.contains("p.nc:3:1: this block follows the M99 at line 2"),
+        "{err}"
+    );
+    // Calls stay refused.
+    let err = compensate("G0 X0 Y0 Z50\nM98 P1000\n").unwrap_err();
+    assert!(err.contains("a subprogram call (M97/M98)"), "{err}");
+}

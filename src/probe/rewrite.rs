@@ -428,7 +428,7 @@ impl Pass<'_, '_> {
                         ));
                     };
                     match codes::meaning(name, self.codes) {
-                        Code::Subprogram => call = Some(t.span.start),
+                        Code::Subprogram | Code::Return => call = Some(t.span.start),
                         Code::ProgramEnd => end_of_program = true,
                         code => {
                             let g = classify(code);

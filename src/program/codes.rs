@@ -145,12 +145,18 @@ pub enum Code {
     TransformOn(&'static str),
     /// G69, G50, G15 … switch it off.
     TransformOff,
+    /// Haas's smoothing, G187 P1…P3 with its tolerance in an E word: it rounds corners
+    /// within the tolerance, as a controller's look-ahead does, and moves no block end.
+    Smoothing,
     /// M3, M4, M5, M19.
     Spindle(Spindle),
     /// M2, M30: the program ends.
     ProgramEnd,
-    /// M97, M98, M99: subprogram calls and returns.
+    /// M97, M98: subprogram calls.
     Subprogram,
+    /// M99: the return from a subprogram; at the end of a main program, its end (a
+    /// Fanuc-family control rewinds it).
+    Return,
     /// Known, moves nothing the pass must follow: planes' companions, feed and spindle
     /// modes, stops, coolant, tool change, overrides, outputs; and codes a machine file
     /// names as harmless.
@@ -264,6 +270,7 @@ pub fn g_code(code10: i64) -> Code {
         },
         // Constant surface speed on and off.
         960 | 970 => Harmless,
+        1870 => Smoothing,
         980 => CycleReturn { initial: true },
         990 => CycleReturn { initial: false },
         _ => Unknown,
@@ -278,7 +285,8 @@ pub fn m_code(code10: i64, extra: &MachineCodes) -> Code {
         50 => Spindle(self::Spindle::Stop),
         190 => Spindle(self::Spindle::Orient),
         20 | 300 => ProgramEnd,
-        970 | 980 | 990 => Subprogram,
+        970 | 980 => Subprogram,
+        990 => Return,
         // Program stop and optional stop, tool change (the length comes with G43), coolant,
         // override switches (M48–M53), digital and analog outputs and waiting on an input
         // (M62–M68): none moves an axis.

@@ -11,6 +11,31 @@ use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
 use crate::nc::{self, Token, TokenKind, Value};
 
+/// Whether the G code `code10` of this block switches a smoothing or look-ahead mode, which
+/// moves no block end: Fanuc's high-speed machining `G05 P10000`/`G05 P0`, AI contour
+/// control `G05.1 Q1`/`Q0` and advanced preview `G08 P1`/`P0`. The same numbers are
+/// LinuxCNC's splines (G5, G5.1) and lathe radius mode (G8): those come with axis words or
+/// without a P (Q) word.
+fn smoothing_switch(code10: i64, tokens: &[Token]) -> bool {
+    let switch = match code10 {
+        50 | 80 => b'P',
+        51 => b'Q',
+        _ => return false,
+    };
+    let mut has_switch = false;
+    for t in tokens {
+        if let TokenKind::Word(w) = &t.kind {
+            match w.letter {
+                b'X' | b'Y' | b'Z' | b'A' | b'B' | b'C' | b'U' | b'V' | b'W' | b'I' | b'J'
+                | b'K' | b'R' => return false,
+                letter if letter == switch => has_switch = true,
+                _ => {}
+            }
+        }
+    }
+    has_switch
+}
+
 /// The UTF-8 byte-order mark.
 const BOM: &[u8] = b"\xEF\xBB\xBF";
 
@@ -316,6 +341,9 @@ impl Reader<'_> {
         let mut p_word = None;
         let mut special: Option<MoveKind> = None;
         let mut set_reference: Option<usize> = None;
+        let mut returned: Option<usize> = None;
+        // G187: its E word is the smoothing tolerance.
+        let mut smoothing = false;
         for (i, t) in tokens.iter().enumerate() {
             let w = match &t.kind {
                 TokenKind::Word(w) => w,
@@ -387,6 +415,9 @@ impl Reader<'_> {
             match letter {
                 'G' => {
                     let code10 = (number * 10.0).round() as i64;
+                    if smoothing_switch(code10, tokens) {
+                        continue;
+                    }
                     match self.code(b'G', code10) {
                         code @ (Code::Unsupported(_)
                         | Code::Unknown
@@ -487,29 +518,34 @@ impl Reader<'_> {
                         | Code::Harmless
                         | Code::Spindle(_)
                         | Code::ProgramEnd
-                        | Code::Subprogram => {}
+                        | Code::Subprogram
+                        | Code::Return => {}
+                        Code::Smoothing => smoothing = true,
                     }
                 }
-                'M' => match self.code(b'M', (number * 10.0).round() as i64) {
-                    Code::Subprogram => {
-                        return Err(refuse_code(t, "cannot be compensated: a subprogram call or return (M97/M98/M99) is not supported".into()));
+                'M' => {
+                    match self.code(b'M', (number * 10.0).round() as i64) {
+                        Code::Return => returned = Some(t.span.start),
+                        Code::Subprogram => {
+                            return Err(refuse_code(t, "cannot be compensated: a subprogram call (M97/M98) is not supported".into()));
+                        }
+                        Code::TcpOn(_) => {
+                            tcp_on = true;
+                            tcp_vector = false;
+                        }
+                        Code::TcpOff => tcp_off = true,
+                        Code::Unsupported(what) => {
+                            return Err(refuse_code(
+                                t,
+                                format!("cannot be compensated: {what} is not supported"),
+                            ));
+                        }
+                        Code::Unknown => {
+                            return Err(refuse_code(t, "cannot be compensated: this M code is not known to nccomp, and what it does to the machine's motion cannot be guessed (expected a standard M code; a machine file may name the machine's own codes under [codes] as `harmless` or as `tcp_on`/`tcp_off` switches)".into()));
+                        }
+                        _ => {}
                     }
-                    Code::TcpOn(_) => {
-                        tcp_on = true;
-                        tcp_vector = false;
-                    }
-                    Code::TcpOff => tcp_off = true,
-                    Code::Unsupported(what) => {
-                        return Err(refuse_code(
-                            t,
-                            format!("cannot be compensated: {what} is not supported"),
-                        ));
-                    }
-                    Code::Unknown => {
-                        return Err(refuse_code(t, "cannot be compensated: this M code is not known to nccomp, and what it does to the machine's motion cannot be guessed (expected a standard M code; a machine file may name the machine's own codes under [codes] as `harmless` or as `tcp_on`/`tcp_off` switches)".into()));
-                    }
-                    _ => {}
-                },
+                }
                 'T' => state.tool = Some(number as u32),
                 'H' => h_word = Some((number as u32, t.span.start)),
                 'O' => o_word = Some(t.span.start),
@@ -530,6 +566,7 @@ impl Reader<'_> {
                             axis_words[v] = Some(i);
                         }
                         None if dwell && letter == 'X' => {}
+                        None if smoothing && letter == 'E' => {}
                         None if "IJKR".contains(letter) => {
                             arc_word.get_or_insert((letter, t.span.start));
                             arc_words["IJKR".find(letter).unwrap_or(0)] = Some(i);
@@ -576,6 +613,21 @@ impl Reader<'_> {
         }
         if !has_words {
             return Ok(false);
+        }
+        if let Some(at_line) = state.ended {
+            let col = tokens
+                .iter()
+                .find(|t| matches!(t.kind, TokenKind::Word(_) | TokenKind::Other))
+                .map_or(0, |t| t.span.start);
+            return Err(at(
+                col,
+                format!(
+                    "this block follows the M99 at line {at_line}, which ends the program (a subprogram returns there, a main program is rewound): expected M99 as the last block"
+                ),
+            ));
+        }
+        if returned.is_some() {
+            state.ended = Some(line.number);
         }
         if let Some(col) = o_word {
             if tokens.iter().any(|t| {

@@ -130,6 +130,8 @@ pub struct Modal {
     pub tool: Option<u32>,
     /// The work offset in force (G54 … by its number times ten).
     pub work_offset: Option<i64>,
+    /// The line of the M99 that ended the program.
+    pub ended: Option<usize>,
     /// The active tool chain (index into [`Machine::tool_chains`]).
     pub chain: usize,
     /// What a lathe's spindle does.
@@ -155,6 +157,7 @@ impl Modal {
             length: machine.tool.length,
             tool: None,
             work_offset: None,
+            ended: None,
             chain,
             spindle: Spindle::Free,
         }
