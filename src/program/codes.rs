@@ -291,15 +291,21 @@ pub fn m_code(code10: i64, extra: &MachineCodes) -> Code {
         // override switches (M48–M53), digital and analog outputs and waiting on an input
         // (M62–M68): none moves an axis.
         0 | 10 | 60 | 70 | 80 | 90 | 480 | 490 | 500 | 510 | 520 | 530 | 620..=680 => Harmless,
-        600 => Unsupported("a pallet change (M60)"),
-        610 => Unsupported("setting the tool number without a tool change (M61)"),
-        700..=730 => Unsupported("saving or restoring the modal state (M70–M73)"),
-        _ => extra
-            .meaning(CodeName {
+        // What these mean on LinuxCNC; on Fanuc-family controls the machine builder gives
+        // them meanings of their own, which a machine file may name.
+        _ => {
+            let own = extra.meaning(CodeName {
                 letter: b'M',
                 code10,
-            })
-            .unwrap_or(Unknown),
+            });
+            match code10 {
+                _ if own.is_some() => own.unwrap_or(Unknown),
+                600 => Unsupported("a pallet change (M60)"),
+                610 => Unsupported("setting the tool number without a tool change (M61)"),
+                700..=730 => Unsupported("saving or restoring the modal state (M70–M73)"),
+                _ => Unknown,
+            }
+        }
     }
 }
 
@@ -315,9 +321,13 @@ pub fn meaning(name: CodeName, extra: &MachineCodes) -> Code {
     }
 }
 
-/// Whether the table itself knows `name` (a machine file may not give it another meaning).
+/// Whether the table itself follows `name` (a machine file may not give it another meaning;
+/// the M codes it only refuses, such as LinuxCNC's M70–M73, a machine may).
 pub fn is_known(name: CodeName) -> bool {
-    meaning(name, &MachineCodes::default()) != Code::Unknown
+    !matches!(
+        meaning(name, &MachineCodes::default()),
+        Code::Unknown | Code::Unsupported(_)
+    ) || name.letter == b'G' && meaning(name, &MachineCodes::default()) != Code::Unknown
 }
 
 #[cfg(test)]
@@ -355,5 +365,14 @@ mod tests {
         assert_eq!(m_code(1000, &linuxcnc), Code::Harmless);
         assert!(is_known(CodeName::parse("M3").unwrap()));
         assert!(!is_known(CodeName::parse("M428").unwrap()));
+        // LinuxCNC's M72 restores the modal state; on a Robodrill it is the builder's.
+        assert!(matches!(m_code(720, &none), Code::Unsupported(_)));
+        assert!(!is_known(CodeName::parse("M72").unwrap()));
+        assert!(is_known(CodeName::parse("G41").unwrap()));
+        let robodrill = MachineCodes {
+            harmless: vec![CodeName::parse("M72").unwrap()],
+            ..MachineCodes::default()
+        };
+        assert_eq!(m_code(720, &robodrill), Code::Harmless);
     }
 }
