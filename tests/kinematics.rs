@@ -270,6 +270,7 @@ fn three_axis_rotary(rotary_first: bool) -> nccomp::model::Machine {
         tool: Default::default(),
         lathe: None,
         codes: Default::default(),
+        plane_solution: Default::default(),
     }
 }
 

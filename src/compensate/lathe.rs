@@ -20,7 +20,7 @@ use super::{Compensator, State};
 use crate::diag::Diagnostic;
 use crate::nc::{self, Token};
 use crate::program::exact::{Position, Unit};
-use crate::program::{BlockMotion, Motion, Spindle};
+use crate::program::{BlockMotion, Motion, Spindle, WorkingPlane};
 
 /// What the program last told one machine axis, kept while its tool chain is not active.
 #[derive(Debug, Clone, Copy)]
@@ -110,12 +110,15 @@ impl Compensator<'_> {
     ) -> Result<bool, Diagnostic> {
         let before = (state.modal.chain, state.modal.spindle);
         let was_tcp = state.modal.tcp.then_some(state.modal.tcp_vector);
+        let was_plane = state.modal.working_plane;
         let read = self.reader.read(line, tokens, &mut state.modal, at, motion);
         if (state.modal.chain, state.modal.spindle) == before {
             // The usual block: the pass stays (a machine with one chain and no lathe never
             // leaves it).
             let moves = read?;
-            return self.follow_modes(state, was_tcp, at).map(|()| moves);
+            return self
+                .follow_modes(state, (was_tcp, was_plane), at)
+                .map(|()| moves);
         }
         // The chain and spindle mode change even when a later word of the block is refused.
         if state.modal.chain != before.0 && self.switch_chain(state, state.modal.chain) {
@@ -141,19 +144,24 @@ impl Compensator<'_> {
         }
         state.pass = pass;
         let moves = read?;
-        self.follow_modes(state, was_tcp, at).map(|()| moves)
+        self.follow_modes(state, (was_tcp, was_plane), at)
+            .map(|()| moves)
     }
 
-    /// Follow what a block read changed of the pass's modes: a cycle ended, tool-centre-
-    /// point control switched on (from `was_tcp`: off, or on with or without vectors).
+    /// Follow what a block read changed of the pass's modes: a cycle ended, a tilted
+    /// working plane set (from `was_plane`), tool-centre-point control switched on (from
+    /// `was_tcp`: off, or on with or without vectors).
     fn follow_modes(
         &self,
         state: &mut State,
-        was_tcp: Option<bool>,
+        (was_tcp, was_plane): (Option<bool>, Option<WorkingPlane>),
         at: &dyn Fn(usize, String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
         if state.cycle.is_some() && state.modal.motion != Some(Motion::Cycle) {
             state.cycle = None;
+        }
+        if state.modal.working_plane != was_plane {
+            self.passes[state.pass].enter_plane(state);
         }
         if state.modal.tcp
             && was_tcp != Some(state.modal.tcp_vector)

@@ -11,6 +11,7 @@ mod axes;
 mod cycles;
 mod lathe;
 mod pipeline;
+mod plane;
 mod presolve;
 mod split;
 mod stream;
@@ -134,7 +135,8 @@ struct State {
     /// Under G43.5: the tool vector as programmed, and as written (not normalised).
     vector_nominal: [f64; 3],
     vector_written: [f64; 3],
-    /// In TCP mode: the programmed tip, and the tip as written (mm).
+    /// In TCP mode and under a tilted working plane: the programmed tip words, and the tip
+    /// words as written (mm; in the plane's frame under a plane).
     tip_nominal: [f64; 3],
     tip_written: [f64; 3],
     /// An active drilling cycle.

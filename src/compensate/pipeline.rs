@@ -183,6 +183,11 @@ impl Pass<'_> {
             self.leave_coordinates(cx, state);
             return Ok(());
         }
+        if cx.motion.kind == MoveKind::ToPlane {
+            return self.to_plane(cx, state, out);
+        }
+        // Under TCP or a tilted working plane, X, Y, Z are the tool tip.
+        let tip_words = state.modal.tcp || state.modal.working_plane.is_some();
         let mut b = Block {
             pass: self,
             cx,
@@ -191,11 +196,11 @@ impl Pass<'_> {
         };
         match cx.motion.kind {
             MoveKind::Cycle => run(&mut super::cycles::CycleMode::default(), &mut b),
-            MoveKind::Arc { clockwise } if b.state.modal.tcp => {
+            MoveKind::Arc { clockwise } if tip_words => {
                 run(&mut super::tcp::TcpMode::arc(clockwise), &mut b)
             }
             MoveKind::Arc { clockwise } => run(&mut super::arcs::ArcMode::new(clockwise), &mut b),
-            _ if b.state.modal.tcp => run(&mut super::tcp::TcpMode::line(), &mut b),
+            _ if tip_words => run(&mut super::tcp::TcpMode::line(), &mut b),
             _ => run(&mut super::axes::AxesMode::default(), &mut b),
         }
     }

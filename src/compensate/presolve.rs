@@ -188,6 +188,7 @@ impl Predictor {
                 || motion.optional
                 || self.modal.incremental
                 || self.modal.tcp
+                || self.modal.working_plane.is_some()
                 || self.modal.motion != Some(Motion::Line)
             {
                 continue;

@@ -33,7 +33,7 @@ use crate::nc::edit::Editor;
 use crate::nc::number::{decimals_for, same_text, write_fixed, write_fixed_value};
 use crate::program::arc::{centre_words, circle, plane_letters};
 use crate::program::exact::{Position, Unit};
-use crate::program::gcode;
+use crate::program::{WorkingPlane, gcode};
 use nalgebra::Vector3;
 use std::fmt::Write;
 
@@ -64,7 +64,7 @@ struct End {
     s: f64,
     /// The controller's axis values for the written words.
     ctrl: [f64; MAX_AXES],
-    /// The written tip (mm).
+    /// The written tip words (mm; in the plane's frame under G68.2).
     tip: Vector3<f64>,
     /// The written tool vector (G43.5, as written: not normalised).
     vector: [f64; 3],
@@ -91,6 +91,9 @@ pub(super) struct TcpMode {
     pieces: Vec<End>,
     /// The block's end as written.
     end: Option<End>,
+    /// Under a tilted working plane (G68.2) the tip words are in its frame; the rotary
+    /// axes stand where the plane put them.
+    frame: Option<WorkingPlane>,
 }
 
 impl TcpMode {
@@ -114,13 +117,26 @@ impl TcpMode {
             hold: 0,
             pieces: Vec::new(),
             end: None,
+            frame: None,
         }
+    }
+
+    /// The part-frame tip of tip words `w` (mm).
+    fn part(&self, w: &Vector3<f64>) -> Vector3<f64> {
+        self.frame.as_ref().map_or(*w, |f| f.part(w))
+    }
+
+    /// The tip words (mm) of part-frame tip `p`.
+    fn words(&self, p: &Vector3<f64>) -> Vector3<f64> {
+        self.frame.as_ref().map_or(*p, |f| f.words(p))
     }
 }
 
 /// The name of the TCP mode for messages.
 fn code(state: &State) -> &'static str {
-    if state.modal.tcp_vector {
+    if state.modal.working_plane.is_some() {
+        "a tilted working plane (G68.2)"
+    } else if state.modal.tcp_vector {
         "G43.5"
     } else {
         "G43.4"
@@ -134,10 +150,10 @@ impl Mode for TcpMode {
         let code = code(state);
         let first = cx.first_word_col();
         if state.modal.incremental {
-            return Err(cx.refuse(first, format!("incremental moves (G91) under {code} cannot be compensated (program the TCP part in G90)")));
+            return Err(cx.refuse(first, format!("incremental moves (G91) under {code} cannot be compensated (program this part in G90)")));
         }
         if cx.motion.optional {
-            return Err(cx.refuse(first, format!("an optional block (/) under {code} cannot be compensated safely (take it out of the TCP part)")));
+            return Err(cx.refuse(first, format!("an optional block (/) under {code} cannot be compensated safely (take it out of this part)")));
         }
         let Some(tips) = pass.tip_vars() else {
             return Err(cx.refuse(
@@ -146,6 +162,11 @@ impl Mode for TcpMode {
             ));
         };
         self.tips = tips;
+        self.frame = state.modal.working_plane;
+        if self.frame.is_some() {
+            pass.plane_checks(cx, state, &tips)?;
+            self.hold = pass.rotary_mask();
+        }
         let vector = state.modal.tcp_vector;
         if vector && self.arc.is_some() {
             return Err(cx.refuse(
@@ -195,7 +216,8 @@ impl Mode for TcpMode {
                 None => guess[v] = value,
             }
         }
-        let tip = Vector3::from(state.tip_nominal);
+        let words = Vector3::from(state.tip_nominal);
+        let tip = self.part(&words);
         let nominal = if vector {
             let given = cx.motion.arc_words[..3].iter().any(Option::is_some);
             if given {
@@ -237,7 +259,7 @@ impl Mode for TcpMode {
             sol.q
         };
         if let Some(clockwise) = self.arc {
-            self.tip_arc = Some(self.tip_arc(cx, state, clockwise, tip)?);
+            self.tip_arc = Some(self.tip_arc(cx, state, clockwise, words)?);
         }
         // Under G43.5 at a singular pose the rotary axes keep their programmed values: the
         // vector is then written as programmed, and the controller holds the free axis where
@@ -277,8 +299,13 @@ impl Mode for TcpMode {
             return Ok(());
         };
         // The rotary axes held at a singular end are held there only: on the way the pose
-        // is not singular (or is, and the solve holds the axis itself).
-        let hold = hold & !self.hold;
+        // is not singular (or is, and the solve holds the axis itself). Under a plane they
+        // are held all the way.
+        let hold = if self.frame.is_some() {
+            hold
+        } else {
+            hold & !self.hold
+        };
         let last = self.written_end(pass, 1.0, end, state);
         self.pieces.clear();
         if let Some(arc) = self.tip_arc {
@@ -330,62 +357,13 @@ impl Mode for TcpMode {
             None => self.written_end(pass, 1.0, end, state),
         };
         let n = pass.kin.len();
-        let inch = state.modal.inch;
-        let to_units = |x: f64| if inch { x / INCH } else { x };
         let (programmed, _) = pass
             .kin
             .pose(Model::Nominal, end.values(), state.modal.length);
+        let programmed_words = self.words(&programmed.p);
         let vector_mode = state.modal.tcp_vector;
-        let mut editor = cx.editor(out.edits);
-        let mut added: Vec<(usize, String)> = Vec::new();
-        for &v in &pass.write_order {
-            let tip_c = self.tips.iter().position(|&t| t == v);
-            if vector_mode && tip_c.is_none() {
-                continue;
-            }
-            let unit = Unit::inch(inch && tip_c.is_some());
-            let (value, before) = match tip_c {
-                Some(c) => (to_units(programmed.p[c]), to_units(state.tip_written[c])),
-                None => (end.q[v], state.emitted[v]),
-            };
-            let written = match cx.motion.axis_words[v] {
-                Some(i) => {
-                    let d = cx.number(i).1.max(pass.res_decimals(v, unit));
-                    state.decimals[v] = d;
-                    if editor.set_fixed(i, value, d) {
-                        out.summary.words_changed += 1;
-                        round(value, d)
-                    } else {
-                        round(cx.number(i).0, d)
-                    }
-                }
-                None => {
-                    let d = state.decimals[v].max(pass.res_decimals(v, unit));
-                    if same_text(before, value, d) {
-                        continue;
-                    }
-                    let mut text = String::new();
-                    let x = write_fixed_value(value, d, &mut text);
-                    added.push((v, text));
-                    x
-                }
-            };
-            match tip_c {
-                Some(c) => state.tip_written[c] = if inch { written * INCH } else { written },
-                None => {
-                    state.emitted[v] = written;
-                    state.written[v] = Position::Decimal {
-                        value: written,
-                        decimals: state.decimals[v],
-                        unit: Unit::MM,
-                    };
-                }
-            }
-        }
-        for (v, text) in &added {
-            pass.insert_axis_word(cx, out, *v, text);
-            out.summary.words_added += 1;
-        }
+        let rotary = (!vector_mode).then_some(&end.q);
+        pass.write_tip_words(cx, &self.tips, &programmed_words, rotary, state, out);
         if vector_mode {
             self.write_vector(pass, cx, &last, state, out);
         }
@@ -411,7 +389,7 @@ impl Mode for TcpMode {
 }
 
 /// `x` as written with `d` decimals.
-fn round(x: f64, d: u8) -> f64 {
+pub(super) fn round(x: f64, d: u8) -> f64 {
     let mut text = String::new();
     write_fixed_value(x, d, &mut text)
 }
@@ -464,9 +442,9 @@ impl TcpMode {
         })
     }
 
-    /// The programmed tip and nominal axis values at parameter `s` of the move: the tip on
-    /// its line or arc, the rotary axes in proportion (the linear axes at `s` in proportion
-    /// too: a guess for the inverse kinematics).
+    /// The programmed tip (in the part frame) and nominal axis values at parameter `s` of
+    /// the move: the tip words on their line or arc, the rotary axes in proportion (the
+    /// linear axes at `s` in proportion too: a guess for the inverse kinematics).
     fn programmed_at(
         &self,
         pass: &Pass<'_>,
@@ -482,6 +460,7 @@ impl TcpMode {
             tip[arc.a] = arc.centre.0 + r * th.cos();
             tip[arc.b] = arc.centre.1 + r * th.sin();
         }
+        let tip = self.part(&tip);
         let mut q = [0.0; MAX_AXES];
         for (v, x) in q.iter_mut().enumerate().take(n) {
             *x = self.q0[v] + (state.pos.nominal[v] - self.q0[v]) * s;
@@ -528,13 +507,14 @@ impl TcpMode {
         let (programmed, _) = pass
             .kin
             .pose(Model::Nominal, sol.values(), state.modal.length);
+        let words = self.words(&programmed.p);
         let mut tip = Vector3::zeros();
         for (c, &v) in self.tips.iter().enumerate() {
             let d = state.decimals[v].max(pass.res_decimals(v, Unit::inch(inch)));
             tip[c] = if inch {
-                round(programmed.p[c] / INCH, d) * INCH
+                round(words[c] / INCH, d) * INCH
             } else {
-                round(programmed.p[c], d)
+                round(words[c], d)
             };
         }
         let mut guess = sol.q;
@@ -587,7 +567,7 @@ impl TcpMode {
             pass.controller_ik(&target, rotary, state.modal.length)
         } else {
             let sol = pass.kin.tcp_axes_with_rotaries(
-                tip,
+                &self.part(tip),
                 &rotary[..n],
                 state.modal.length,
                 &pass.options.solve,
@@ -764,7 +744,7 @@ impl TcpMode {
             let s = a.s + (b.s - a.s) * u;
             let target = self.target_at(pass, s, state);
             // The controller: the tip on a straight line, the rotary axes in proportion.
-            let tip = a.tip + (b.tip - a.tip) * u;
+            let tip = self.part(&(a.tip + (b.tip - a.tip) * u));
             let mut q = [0.0; MAX_AXES];
             for (v, x) in q.iter_mut().enumerate().take(n) {
                 *x = a.ctrl[v] + (b.ctrl[v] - a.ctrl[v]) * u;
@@ -971,7 +951,9 @@ impl Pass<'_> {
         } else {
             "G43.4"
         };
-        let refusal = if self.turning {
+        let refusal = if state.modal.working_plane.is_some() {
+            "under a tilted working plane (G68.2) cannot be compensated (expected G69 before it)"
+        } else if self.turning {
             "cannot be compensated while turning: the spindle turns or has not been positioned (position it with M19 or a C word first)"
         } else if state.modal.diameter {
             "in diameter mode (G7) cannot be compensated (program it in radius mode, G8)"

@@ -1,12 +1,13 @@
 //! Writing a compensated block's axis words: positions in G90, increments in G91.
 
 use super::pipeline::{Cx, Out};
-use super::{Pass, State, axis_order};
+use super::{INCH, Pass, State, axis_order};
 use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
 use crate::nc::edit::{Editor, Style};
 use crate::nc::number::{same_text, write_fixed_value, write_scaled_bytes};
-use crate::program::exact::{self, Position};
+use crate::program::exact::{self, Position, Unit};
+use nalgebra::Vector3;
 
 impl Pass<'_> {
     /// G90: write each axis's compensated position `q` (mm, degrees); a word keeps its
@@ -227,6 +228,75 @@ impl Pass<'_> {
                 };
             }
             words.push(style.word(self.letter(v), &number));
+        }
+    }
+
+    /// The tip words X, Y, Z for the tip `tip` (mm; TCP, a tilted working plane, a cycle in
+    /// it) and, where `rotary` is given, the rotary words for its values: a word keeps its
+    /// bytes when its new value prints the same, a word the block lacks is added when its
+    /// value no longer prints as last written. Follows `State::tip_written` and, for the
+    /// rotary axes, what the controller is told.
+    pub(super) fn write_tip_words(
+        &self,
+        cx: &Cx<'_, '_>,
+        tips: &[usize; 3],
+        tip: &Vector3<f64>,
+        rotary: Option<&[f64; MAX_AXES]>,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) {
+        let inch = state.modal.inch;
+        let to_units = |x: f64| if inch { x / INCH } else { x };
+        let mut editor = cx.editor(out.edits);
+        let mut added: Vec<(usize, String)> = Vec::new();
+        for &v in &self.write_order {
+            let tip_c = tips.iter().position(|&t| t == v);
+            let rotary_value = match (tip_c, rotary) {
+                (None, None) => continue,
+                (_, r) => r.map_or(0.0, |r| r[v]),
+            };
+            let unit = Unit::inch(inch && tip_c.is_some());
+            let (value, before) = match tip_c {
+                Some(c) => (to_units(tip[c]), to_units(state.tip_written[c])),
+                None => (rotary_value, state.emitted[v]),
+            };
+            let written = match cx.motion.axis_words[v] {
+                Some(i) => {
+                    let d = cx.number(i).1.max(self.res_decimals(v, unit));
+                    state.decimals[v] = d;
+                    if editor.set_fixed(i, value, d) {
+                        out.summary.words_changed += 1;
+                        super::tcp::round(value, d)
+                    } else {
+                        super::tcp::round(cx.number(i).0, d)
+                    }
+                }
+                None => {
+                    let d = state.decimals[v].max(self.res_decimals(v, unit));
+                    if same_text(before, value, d) {
+                        continue;
+                    }
+                    let mut text = String::new();
+                    let x = write_fixed_value(value, d, &mut text);
+                    added.push((v, text));
+                    x
+                }
+            };
+            match tip_c {
+                Some(c) => state.tip_written[c] = if inch { written * INCH } else { written },
+                None => {
+                    state.emitted[v] = written;
+                    state.written[v] = Position::Decimal {
+                        value: written,
+                        decimals: state.decimals[v],
+                        unit: Unit::MM,
+                    };
+                }
+            }
+        }
+        for (v, text) in &added {
+            self.insert_axis_word(cx, out, *v, text);
+            out.summary.words_added += 1;
         }
     }
 

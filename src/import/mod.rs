@@ -145,6 +145,7 @@ fn iso_machine() -> Machine {
         tool: Tool::default(),
         lathe: None,
         codes: Default::default(),
+        plane_solution: Default::default(),
     }
 }
 

@@ -30,7 +30,7 @@
 
 use super::limits::{self, shown};
 use super::terms::{is_axis_name, or_list, suggest};
-use super::{Axis, AxisKind, Chain, Lathe, Machine, Resolution, Tool};
+use super::{Axis, AxisKind, Chain, Lathe, Machine, PlaneSolution, Resolution, Tool};
 use crate::program::{self, CodeName, MachineCodes};
 use crate::{Error, Result};
 use nalgebra::Vector3;
@@ -65,6 +65,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
             "tool",
             "lathe",
             "codes",
+            "working_plane",
         ],
         "the machine file",
     )?;
@@ -257,6 +258,11 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         None => MachineCodes::default(),
     };
 
+    let plane_solution = match root.get("working_plane") {
+        Some(v) => working_plane(&doc, v, &axes)?,
+        None => PlaneSolution::default(),
+    };
+
     Ok(Machine {
         name,
         axes,
@@ -266,6 +272,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         tool,
         lathe,
         codes,
+        plane_solution,
     })
 }
 
@@ -421,6 +428,43 @@ fn codes(doc: &Doc, v: &Spanned<DeValue>) -> Result<MachineCodes> {
         }
     }
     Ok(codes)
+}
+
+/// `[working_plane]`: `solution = "shortest"` (Fanuc's G53.1) or a rotary axis and a
+/// sign, `"A+"` or `"A-"` (Heidenhain's SEQ+ / SEQ-).
+fn working_plane(doc: &Doc, v: &Spanned<DeValue>, axes: &[Axis]) -> Result<PlaneSolution> {
+    let t = doc.table(
+        v,
+        "[working_plane], a table with `solution = \"shortest\"` or a rotary axis and a sign such as \"A+\"",
+    )?;
+    doc.check_keys(t, &["solution"], "[working_plane]")?;
+    let Some(s) = t.get("solution") else {
+        return Ok(PlaneSolution::default());
+    };
+    let text = doc.string(s, "`solution` of [working_plane]")?;
+    if text == "shortest" {
+        return Ok(PlaneSolution::Shortest);
+    }
+    let sign = text.chars().last();
+    let name = &text[..text.len() - sign.map_or(0, char::len_utf8)];
+    let axis = axes
+        .iter()
+        .position(|a| a.name == name && a.kind == AxisKind::Rotary);
+    match (axis, sign) {
+        (Some(axis), Some(c @ ('+' | '-'))) => Ok(PlaneSolution::Sign {
+            axis,
+            positive: c == '+',
+        }),
+        _ => Err(doc.err(
+            s.span(),
+            format!(
+                "`{text}` in `solution` of [working_plane]: expected \"shortest\" or a rotary axis of this machine followed by + or - (such as \"{}+\")",
+                axes.iter()
+                    .find(|a| a.kind == AxisKind::Rotary)
+                    .map_or("A", |a| a.name.as_str())
+            ),
+        )),
+    }
 }
 
 /// A chain's `tools = [1, 2, 3]`: T numbers, each in one chain only.

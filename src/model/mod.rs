@@ -191,6 +191,22 @@ pub struct Machine {
     pub lathe: Option<Lathe>,
     /// G and M codes of this machine's own that programs may use (machine file `[codes]`).
     pub codes: crate::program::MachineCodes,
+    /// Which rotary solution the controller's G53.1 takes (machine file `[working_plane]`).
+    pub plane_solution: PlaneSolution,
+}
+
+/// Which of the rotary positions that turn the tool perpendicular to a tilted working plane
+/// the controller takes (G53.1): there are two in general, one per sign of the tilting axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PlaneSolution {
+    /// Fanuc's rule (G53.1): the least move of the first rotary axis (the table's, on a
+    /// machine with one in the table and one in the head; else the one nearer the bed),
+    /// then of the second, then the angle nearer 0.
+    #[default]
+    Shortest,
+    /// The solution with this axis (index into [`Machine::axes`]) at a positive (or zero)
+    /// angle, or at a negative one: Heidenhain's SEQ+ / SEQ-, LinuxCNC's G53.1 P1 / P2.
+    Sign { axis: usize, positive: bool },
 }
 
 impl Machine {

@@ -204,7 +204,9 @@ fn classify(code: Code) -> G {
         Code::MacroCall => Call,
         Code::ModalMacro => Refused("a modal macro call (G66)"),
         Code::TransformOn(what) => TransformOn(what),
-        Code::TransformOff => TransformOff,
+        Code::TiltedPlane => TransformOn("a tilted working plane (G68.2)"),
+        Code::ToolToPlane => Lost,
+        Code::TransformOff | Code::PlaneOff => TransformOff,
         _ => Harmless,
     }
 }

@@ -143,8 +143,14 @@ pub enum Code {
     ModalMacro,
     /// G68, G51, G16 … switch on a transformation of the program's coordinates.
     TransformOn(&'static str),
-    /// G69, G50, G15 … switch it off.
+    /// G50, G15 … switch it off.
     TransformOff,
+    /// G68.2 X Y Z I J K: a tilted working plane, its origin and Euler angles (Z-X-Z).
+    TiltedPlane,
+    /// G53.1: the rotary axes turn the tool perpendicular to the tilted working plane.
+    ToolToPlane,
+    /// G69: the working plane (and a G68 rotation) off.
+    PlaneOff,
     /// Haas's smoothing, G187 P1…P3 with its tolerance in an E word: it rounds corners
     /// within the tolerance, as a controller's look-ahead does, and moves no block end.
     Smoothing,
@@ -237,14 +243,18 @@ pub fn g_code(code10: i64) -> Code {
         510 | 511 => TransformOn("scaling or mirroring (G51)"),
         520 => DataSetting("a local coordinate offset (G52)"),
         530 => MachineCoordinates,
+        531 => ToolToPlane,
         541 => ExtendedWorkOffset,
         540 | 550 | 560 | 570 | 580 | 590 | 591 | 592 | 593 => WorkOffset(code10),
         // Exact stop, exact-stop mode, path blending.
         610 | 611 | 640 => Harmless,
         650 => MacroCall,
         660 | 661 => ModalMacro,
+        682 => TiltedPlane,
+        683 => TransformOn("a tilted working plane along the tool (G68.3)"),
+        684 => TransformOn("an incremental tilted working plane (G68.4)"),
         680..=689 => TransformOn("coordinate rotation (G68)"),
-        690 => TransformOff,
+        690 => PlaneOff,
         730 | 810..=860 | 880 | 890 => Cycle(self::Cycle::Drill),
         740 => Cycle(self::Cycle::Other("a tapping cycle (G74)")),
         760 => Cycle(self::Cycle::Other("a threading or fine boring cycle (G76)")),

@@ -165,6 +165,91 @@ impl Reader<'_> {
             })
     }
 
+    /// A G68.2 block (`set`: its X Y Z I J K set the tilted working plane, and it moves
+    /// nothing) or a G53.1 block (the rotary axes turn the tool to the plane: a motion of
+    /// the controller's own). Either takes no other motion or axis words.
+    #[allow(clippy::too_many_arguments)]
+    fn working_plane(
+        &self,
+        tokens: &[Token],
+        state: &mut Modal,
+        at: At<'_>,
+        out: &mut BlockMotion,
+        code: usize,
+        set: bool,
+    ) -> Result<bool, Diagnostic> {
+        let words = &self.chains[state.chain];
+        let col = tokens[code].span.start;
+        let number = |i: usize| match &tokens[i].kind {
+            TokenKind::Word(w) => w.number().unwrap_or(0.0),
+            _ => 0.0,
+        };
+        if state.tcp {
+            return Err(at(
+                col,
+                "a tilted working plane under tool-centre-point control cannot be compensated (expected G49 before G68.2)".into(),
+            ));
+        }
+        if !set {
+            if state.working_plane.is_none() {
+                return Err(at(
+                    col,
+                    "G53.1 turns the tool to the tilted working plane, but no plane is set (expected G68.2 before it)".into(),
+                ));
+            }
+            if let Some(i) = out.axis_words.iter().chain(&out.arc_words).flatten().next() {
+                return Err(at(
+                    tokens[*i].span.start,
+                    "G53.1 takes no axis words: the controller alone turns the rotary axes to the plane (expected G53.1 on its own)".into(),
+                ));
+            }
+            if let Some(plane) = state.working_plane.as_mut() {
+                plane.tilted = true;
+            }
+            out.kind = MoveKind::ToPlane;
+            out.arc_code = Some(code);
+            return Ok(true);
+        }
+        if state.incremental {
+            return Err(at(
+                col,
+                "G68.2 in incremental mode (G91) cannot be compensated (expected the plane in G90)"
+                    .into(),
+            ));
+        }
+        let mut origin = [0.0; 3];
+        for (v, word) in out.axis_words.iter().enumerate().take(words.len()) {
+            let Some(i) = *word else { continue };
+            match b"XYZ".iter().position(|&l| l == words.letters[v]) {
+                Some(c) if words.is_linear(v) => {
+                    origin[c] = if state.inch {
+                        number(i) * super::INCH
+                    } else {
+                        number(i)
+                    }
+                }
+                _ => {
+                    return Err(at(
+                        tokens[i].span.start,
+                        format!(
+                            "{} words are not expected in G68.2 (expected X, Y, Z for the plane's origin and I, J, K for its Euler angles)",
+                            words.letters[v] as char
+                        ),
+                    ));
+                }
+            }
+        }
+        if let Some(i) = out.arc_words[3] {
+            return Err(at(
+                tokens[i].span.start,
+                "R words are not expected in G68.2 (expected X, Y, Z for the plane's origin and I, J, K for its Euler angles)".into(),
+            ));
+        }
+        let euler = [0, 1, 2].map(|c| out.arc_words[c].map_or(0.0, number));
+        state.working_plane = Some(super::WorkingPlane::new(origin, euler));
+        Ok(false)
+    }
+
     /// Follow the block's T word and spindle codes: the tool chain and spindle mode the
     /// block runs in.
     fn select(
@@ -344,6 +429,9 @@ impl Reader<'_> {
         let mut returned: Option<usize> = None;
         // G187: its E word is the smoothing tolerance.
         let mut smoothing = false;
+        // G68.2 (its X Y Z I J K are the plane's data) and G53.1.
+        let mut plane_words: Option<usize> = None;
+        let mut to_plane: Option<usize> = None;
         for (i, t) in tokens.iter().enumerate() {
             let w = match &t.kind {
                 TokenKind::Word(w) => w,
@@ -521,6 +609,9 @@ impl Reader<'_> {
                         | Code::Subprogram
                         | Code::Return => {}
                         Code::Smoothing => smoothing = true,
+                        Code::TiltedPlane => plane_words = Some(i),
+                        Code::ToolToPlane => to_plane = Some(i),
+                        Code::PlaneOff => state.working_plane = None,
                     }
                 }
                 'M' => {
@@ -628,6 +719,9 @@ impl Reader<'_> {
         }
         if returned.is_some() {
             state.ended = Some(line.number);
+        }
+        if let Some(code) = plane_words.or(to_plane) {
+            return self.working_plane(tokens, state, at, out, code, plane_words.is_some());
         }
         if let Some(col) = o_word {
             if tokens.iter().any(|t| {

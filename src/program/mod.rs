@@ -45,6 +45,9 @@ pub enum MoveKind {
     Arc { clockwise: bool },
     /// A block of a drilling cycle (G81 …).
     Cycle,
+    /// G53.1: the controller turns the rotary axes so that the tool is perpendicular to the
+    /// tilted working plane.
+    ToPlane,
 }
 
 /// What a block that moves asks for: token indices of its words in the line's tokens.
@@ -96,6 +99,50 @@ pub enum Motion {
     Cycle,
 }
 
+/// A tilted working plane (G68.2): a frame in the part frame (the workpiece coordinate
+/// system), in which the X, Y, Z words are given.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorkingPlane {
+    /// The frame's origin in the part frame (mm).
+    pub origin: nalgebra::Vector3<f64>,
+    /// The frame's axes in the part frame: `R · (x, y, z)` is a plane point's offset from
+    /// the origin, `R · e_z` the plane's normal (the tool direction after G53.1).
+    pub rotation: nalgebra::Rotation3<f64>,
+    /// Whether G53.1 has turned the tool to the plane since it was set.
+    pub tilted: bool,
+}
+
+impl WorkingPlane {
+    /// The plane of `G68.2 X Y Z I J K`: origin (mm) and Euler angles in degrees, about Z,
+    /// then the new X, then the new Z.
+    pub fn new(origin: [f64; 3], euler: [f64; 3]) -> WorkingPlane {
+        use nalgebra::{Rotation3, Vector3};
+        let [i, j, k] = euler.map(f64::to_radians);
+        WorkingPlane {
+            origin: Vector3::from(origin),
+            rotation: Rotation3::from_axis_angle(&Vector3::z_axis(), i)
+                * Rotation3::from_axis_angle(&Vector3::x_axis(), j)
+                * Rotation3::from_axis_angle(&Vector3::z_axis(), k),
+            tilted: false,
+        }
+    }
+
+    /// The part-frame point of plane coordinates `w` (mm).
+    pub fn part(&self, w: &nalgebra::Vector3<f64>) -> nalgebra::Vector3<f64> {
+        self.origin + self.rotation * w
+    }
+
+    /// The plane coordinates (mm) of part-frame point `p`.
+    pub fn words(&self, p: &nalgebra::Vector3<f64>) -> nalgebra::Vector3<f64> {
+        self.rotation.inverse() * (p - self.origin)
+    }
+
+    /// The plane's normal in the part frame: the tool direction G53.1 turns the tool to.
+    pub fn normal(&self) -> nalgebra::Vector3<f64> {
+        self.rotation * nalgebra::Vector3::z()
+    }
+}
+
 /// The program's modal state, as the controller keeps it between blocks.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Modal {
@@ -132,6 +179,8 @@ pub struct Modal {
     pub work_offset: Option<i64>,
     /// The line of the M99 that ended the program.
     pub ended: Option<usize>,
+    /// A tilted working plane in force (G68.2 … G69).
+    pub working_plane: Option<WorkingPlane>,
     /// The active tool chain (index into [`Machine::tool_chains`]).
     pub chain: usize,
     /// What a lathe's spindle does.
@@ -158,6 +207,7 @@ impl Modal {
             tool: None,
             work_offset: None,
             ended: None,
+            working_plane: None,
             chain,
             spindle: Spindle::Free,
         }

@@ -54,6 +54,7 @@ pub fn ac_trunnion(a_point: [f64; 3], c_point: [f64; 3]) -> Machine {
         tool: Tool::default(),
         lathe: None,
         codes: Default::default(),
+        plane_solution: Default::default(),
     }
 }
 
@@ -78,6 +79,7 @@ pub fn head_head(pivot: f64) -> Machine {
         tool: Tool::default(),
         lathe: None,
         codes: Default::default(),
+        plane_solution: Default::default(),
     }
 }
 

@@ -1,0 +1,316 @@
+//! Tilted working planes (G68.2 X Y Z I J K, G53.1, G69): 3+2 work.
+//!
+//! G68.2 sets a frame in the part frame: its origin and its axes (Euler angles Z-X-Z, in
+//! degrees). G53.1 turns the rotary axes so that the tool is perpendicular to the plane:
+//! the controller computes them from the plane's normal with its nominal kinematics, and
+//! of the solutions takes the one the machine file names (`[working_plane] solution`,
+//! Fanuc's rule by default). No word of the program says where they go, so they stay at
+//! the controller's values (design/model.md, "Output rule"): the moves after it put the tip
+//! exactly where the program says with the linear axes, and the direction error the
+//! rotary axes leave is reported. Those moves are tool-tip moves in the plane's frame, so
+//! they go through the tool-centre-point mode ([`super::tcp`]) with the frame and the
+//! rotary axes held; drilling cycles in the plane go through [`super::cycles`].
+
+use super::pipeline::{Cx, Out};
+use super::{Pass, State};
+use crate::diag::Diagnostic;
+use crate::kinematics::{MAX_AXES, Model, Pose, SolveOptions, angle_between};
+use crate::model::{AxisKind, PlaneSolution};
+use crate::program::WorkingPlane;
+use crate::program::exact::{Position, Unit};
+use nalgebra::Vector3;
+use std::cmp::Ordering;
+
+/// Angles closer than this (degrees) are the same solution.
+const SAME: f64 = 1e-6;
+
+impl Pass<'_> {
+    /// G53.1: the rotary axes go where the controller turns them for the active plane;
+    /// the linear axes stay.
+    pub(super) fn to_plane(
+        &self,
+        cx: &Cx<'_, '_>,
+        state: &mut State,
+        _out: &mut Out<'_>,
+    ) -> Result<(), Diagnostic> {
+        let col = cx.motion.arc_code.map_or(0, |i| cx.col(i));
+        let Some(plane) = state.modal.working_plane else {
+            return Ok(());
+        };
+        let rotary = self.rotary_mask();
+        if rotary == 0 {
+            return Err(cx.refuse(
+                col,
+                "G53.1 turns the rotary axes to the plane, but this tool chain has none".into(),
+            ));
+        }
+        if let Some(v) = (0..self.kin.len())
+            .find(|&v| rotary & (1 << v) != 0 && state.pos.unknown & (1 << v) != 0)
+        {
+            return Err(cx.refuse(
+                col,
+                format!(
+                    "the controller's choice of rotary positions for G53.1 depends on where axis {} stands, which is not known here (after G28, G30 or G53; program it before G53.1)",
+                    self.axis_name(v)
+                ),
+            ));
+        }
+        let q = self
+            .plane_rotaries(&plane.normal(), state)
+            .map_err(|why| cx.refuse(col, format!("G53.1 cannot be compensated: {why}")))?;
+        for v in (0..self.kin.len()).filter(|&v| rotary & (1 << v) != 0) {
+            let bit = 1u32 << v;
+            state.pos.nominal[v] = q[v];
+            state.emitted[v] = q[v];
+            state.decimals[v] = state.decimals[v].max(self.decimals.1);
+            state.written[v] = Position::Decimal {
+                value: q[v],
+                decimals: state.decimals[v],
+                unit: Unit::MM,
+            };
+            state.pos.programmed |= bit;
+            state.uncertain &= !bit;
+            state.unsettled &= !bit;
+        }
+        self.enter_plane(state);
+        Ok(())
+    }
+
+    /// What a move under a tilted working plane needs: no rotary words (the rotary axes
+    /// stand where G53.1 or the program's last rotary words put them, and the controller
+    /// keeps them there), the controller's rotary values the programmed ones, and the tip
+    /// known where the block does not give it.
+    pub(super) fn plane_checks(
+        &self,
+        cx: &Cx<'_, '_>,
+        state: &State,
+        tips: &[usize; 3],
+    ) -> Result<(), Diagnostic> {
+        let pass = self;
+        let n = pass.kin.len();
+        for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
+            if let Some(i) = *word
+                && !tips.contains(&v)
+            {
+                return Err(cx.refuse(
+                    cx.col(i),
+                    format!(
+                        "a {} word under a tilted working plane (G68.2) cannot be compensated: how the controller moves the tip while a rotary axis turns under a plane is not determined (expected X, Y, Z; position the rotary axes with G53.1 or before G68.2)",
+                        pass.letter(v) as char
+                    ),
+                ));
+            }
+        }
+        let rotary = pass.rotary_mask();
+        if let Some(v) =
+            (0..n).find(|&v| rotary & (1 << v) != 0 && state.pos.unknown & (1 << v) != 0)
+        {
+            return Err(cx.refuse(
+                cx.first_word_col(),
+                format!(
+                    "where axis {} stands under this tilted working plane is not known (after G28, G30 or G53; expected G53.1 after G68.2)",
+                    pass.axis_name(v)
+                ),
+            ));
+        }
+        if let Some(v) =
+            (0..n).find(|&v| rotary & (1 << v) != 0 && state.emitted[v] != state.pos.nominal[v])
+        {
+            return Err(cx.refuse(
+                cx.first_word_col(),
+                format!(
+                    "under this tilted working plane axis {} stands where an earlier block's corrected word put it ({:.4}, programmed {:.4}), and the controller would hold it there (expected G53.1 after G68.2, which turns the rotary axes to the plane)",
+                    pass.axis_name(v),
+                    state.emitted[v],
+                    state.pos.nominal[v]
+                ),
+            ));
+        }
+        let given = tips.iter().all(|&v| cx.motion.axis_words[v].is_some());
+        if !given && state.pos.unknown != 0 {
+            return Err(cx.refuse(
+                cx.first_word_col(),
+                "where the tool stands in the tilted working plane before this block is not known (after G28, G30 or G53; expected X, Y and Z in this block)".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The nominal axis values at which the tip is at words `w` (mm) of `frame`, the rotary
+    /// axes where they stand: the controller's transformation of the words.
+    pub(super) fn plane_axes(
+        &self,
+        frame: &WorkingPlane,
+        w: &Vector3<f64>,
+        state: &State,
+    ) -> Option<[f64; MAX_AXES]> {
+        let n = self.kin.len();
+        let sol = self.kin.tcp_axes_with_rotaries(
+            &frame.part(w),
+            &state.pos.nominal[..n],
+            state.modal.length,
+            &self.options.solve,
+        );
+        (sol.position_residual <= 1e-6).then_some(sol.q)
+    }
+
+    /// The tip words (mm) of `frame` at which the nominal machine puts the tip at `q`.
+    pub(super) fn plane_words(&self, frame: &WorkingPlane, q: &[f64], length: f64) -> Vector3<f64> {
+        frame.words(
+            &self
+                .kin
+                .pose(Model::Nominal, &q[..self.kin.len()], length)
+                .0
+                .p,
+        )
+    }
+
+    /// A plane set or the rotary axes turned: the tip words before the next block, as
+    /// programmed and as written, in the plane's frame.
+    pub(super) fn enter_plane(&self, state: &mut State) {
+        let Some(plane) = state.modal.working_plane else {
+            return;
+        };
+        let n = self.kin.len();
+        let (nominal, _) =
+            self.kin
+                .pose(Model::Nominal, &state.pos.nominal[..n], state.modal.length);
+        let (written, _) = self
+            .kin
+            .pose(Model::Nominal, &state.emitted[..n], state.modal.length);
+        state.tip_nominal = plane.words(&nominal.p).into();
+        state.tip_written = plane.words(&written.p).into();
+    }
+
+    /// The rotary values (the other axes as they stand) at which the nominal machine points
+    /// the tool along `normal`, the one of the solutions within travel that the machine
+    /// file's rule picks. A rotary axis whose line lies along the tool there keeps its
+    /// current value (it cannot turn the tool).
+    fn plane_rotaries(
+        &self,
+        normal: &nalgebra::Vector3<f64>,
+        state: &State,
+    ) -> Result<[f64; MAX_AXES], String> {
+        let n = self.kin.len();
+        let length = state.modal.length;
+        let from = state.emitted;
+        let order = self.rotary_order();
+        let (here, _) = self.kin.pose(Model::Nominal, &from[..n], length);
+        let target = Pose {
+            p: here.p,
+            o: normal.normalize(),
+        };
+        let far = SolveOptions {
+            max_iterations: 100,
+            singular_angle: 1e-7,
+            ..self.options.solve
+        };
+        let mut found: Vec<[f64; MAX_AXES]> = Vec::new();
+        // Newton's method from starts a quarter turn apart on every rotary axis reaches
+        // every solution.
+        let starts = 4usize.pow(order.len() as u32);
+        for k in 0..starts {
+            let mut start = from;
+            for (j, &v) in order.iter().enumerate() {
+                start[v] += 90.0 * ((k / 4usize.pow(j as u32)) % 4) as f64;
+            }
+            let Some(sol) = self
+                .kin
+                .inverse(Model::Nominal, &target, &start[..n], length, &far)
+            else {
+                continue;
+            };
+            let mut q = sol.q;
+            let (pose, jac) = self.kin.pose_and_jacobian(Model::Nominal, &q[..n], length);
+            let free = self.kin.singular_axes(&pose, &jac.axis_dir, 1e-7);
+            let mut within = true;
+            for &v in &order {
+                if free & (1 << v) != 0 {
+                    q[v] = from[v];
+                    continue;
+                }
+                q[v] += 360.0 * ((from[v] - q[v]) / 360.0).round();
+                if let Some([lo, hi]) = self.travel(v) {
+                    if q[v] < lo && q[v] + 360.0 <= hi {
+                        q[v] += 360.0;
+                    } else if q[v] > hi && q[v] - 360.0 >= lo {
+                        q[v] -= 360.0;
+                    }
+                    within &= (lo..=hi).contains(&q[v]);
+                }
+            }
+            let (pose, _) = self.kin.pose(Model::Nominal, &q[..n], length);
+            if !within || angle_between(&pose.o, &target.o) > 1e-9 {
+                continue;
+            }
+            if !found
+                .iter()
+                .any(|f| order.iter().all(|&v| (f[v] - q[v]).abs() < SAME))
+            {
+                found.push(q);
+            }
+        }
+        let wanted = match self.machine.plane_solution {
+            PlaneSolution::Shortest => None,
+            PlaneSolution::Sign { axis, positive } => {
+                let Some(v) = self.kin.axes().iter().position(|&a| a == axis) else {
+                    return Err(format!(
+                        "the machine file picks the solution by the sign of axis {}, which this tool chain does not move",
+                        self.machine.axes[axis].name
+                    ));
+                };
+                found.retain(|q| {
+                    if positive {
+                        q[v] >= -SAME
+                    } else {
+                        q[v] <= SAME
+                    }
+                });
+                Some((self.machine.axes[axis].name.as_str(), positive))
+            }
+        };
+        // Fanuc's rule: the least move of the first axis, then of the second, then the
+        // angles nearer 0.
+        let wrapped = |x: f64| (x - 360.0 * (x / 360.0).round()).abs();
+        let cost = |q: &[f64; MAX_AXES]| {
+            let mut key = Vec::with_capacity(2 * order.len());
+            key.extend(order.iter().map(|&v| (q[v] - from[v]).abs()));
+            key.extend(order.iter().map(|&v| wrapped(q[v])));
+            key
+        };
+        let best = found.iter().min_by(|a, b| {
+            let (ka, kb) = (cost(a), cost(b));
+            ka.iter()
+                .zip(&kb)
+                .find(|(x, y)| (*x - *y).abs() >= SAME)
+                .map_or(Ordering::Equal, |(x, y)| x.total_cmp(y))
+        });
+        best.copied().ok_or_else(|| match wanted {
+            Some((name, positive)) => format!(
+                "the nominal machine cannot turn the tool perpendicular to this plane with axis {name} {} within the travel",
+                if positive { "at 0 or above" } else { "at 0 or below" }
+            ),
+            None => "the nominal machine cannot turn the tool perpendicular to this plane within the travel".into(),
+        })
+    }
+
+    /// The rotary variables, the controller's first (master) axis first: the table's
+    /// from the bed outward, then the head's.
+    fn rotary_order(&self) -> Vec<usize> {
+        let axes = self.kin.axes();
+        let var = |axis: usize| axes.iter().position(|&a| a == axis);
+        let chain = &self.machine.tool_chains[self.chain].axes;
+        self.machine
+            .workpiece_chain
+            .iter()
+            .chain(chain.iter())
+            .filter_map(|&a| var(a))
+            .filter(|&v| self.kin.kind(v) == AxisKind::Rotary)
+            .fold(Vec::new(), |mut list, v| {
+                if !list.contains(&v) {
+                    list.push(v);
+                }
+                list
+            })
+    }
+}
