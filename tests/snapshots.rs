@@ -115,3 +115,21 @@ fn incremental_program_with_the_path_tolerance() {
         }
     ));
 }
+
+#[test]
+fn ac_trunnion_plane() {
+    insta::assert_snapshot!(compensate(
+        "ac_trunnion",
+        "ac_trunnion_plane",
+        Options::default()
+    ));
+}
+
+#[test]
+fn head_head_plane() {
+    insta::assert_snapshot!(compensate(
+        "head_head",
+        "head_head_plane",
+        Options::default()
+    ));
+}

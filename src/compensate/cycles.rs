@@ -7,6 +7,11 @@
 //! (a cycle has no rotary words). That is honest only where one X, Y serves the whole
 //! depth: where the tool at the R plane, with the bottom's X, Y, would be further from the
 //! hole's axis than the path tolerance, the cycle is refused (program it as G0/G1 moves).
+//!
+//! Under a tilted working plane (G68.2 after G53.1) the cycle drills along the plane's Z:
+//! X, Y, Z and R are the tip in the plane's frame, the controller turns them into axis
+//! values with its nominal transformation, and the rotary axes stay where G53.1 put them.
+//! The same rules hold there with the words in the plane's frame.
 
 use super::Pass;
 use super::pipeline::{Block, Cx, Mode};
@@ -14,7 +19,9 @@ use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Model, Solution};
 use crate::model::AxisKind;
 use crate::nc::number::write_fixed;
+use crate::program::WorkingPlane;
 use crate::program::exact::{Position, Unit};
+use nalgebra::Vector3;
 
 /// The modal state of an active cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,6 +44,11 @@ pub(super) struct CycleMode {
     /// The nominal values at the R plane, and their solution.
     r_plane: [f64; MAX_AXES],
     r_solution: Option<Solution>,
+    /// Under a tilted working plane: the plane, and the words (mm) the bottom and the R
+    /// plane are written as.
+    frame: Option<WorkingPlane>,
+    bottom_words: Vector3<f64>,
+    r_words: Vector3<f64>,
 }
 
 impl CycleMode {
@@ -55,6 +67,53 @@ impl CycleMode {
     }
 }
 
+impl CycleMode {
+    /// The target of a cycle under a tilted working plane: X, Y the hole in the plane, the
+    /// bottom and R along the plane's Z; the rotary axes stay.
+    fn plane_target(
+        &mut self,
+        b: &mut Block,
+        frame: &WorkingPlane,
+        cycle: Cycle,
+        q: &mut [f64; MAX_AXES],
+    ) -> Result<bool, Diagnostic> {
+        let (pass, cx, state, _) = b.parts();
+        let to_mm = |x: f64| Unit::inch(state.modal.inch).to_mm(x);
+        for c in 0..2 {
+            if let Some(i) = cx.motion.axis_words[self.vars[c]] {
+                state.tip_nominal[c] = to_mm(cx.number(i).0);
+            }
+        }
+        let (Some(bottom), Some(r_plane)) = (cycle.bottom, cycle.r_plane) else {
+            return Err(Self::refuse(
+                cx,
+                "it needs its bottom (Z) and retract plane (R)".into(),
+            ));
+        };
+        let length = state.modal.length;
+        let at = |z: f64| {
+            let w = Vector3::new(state.tip_nominal[0], state.tip_nominal[1], z);
+            pass.plane_axes(frame, &w, &state.pos.nominal, length)
+                .ok_or_else(|| {
+                    Self::refuse(
+                        cx,
+                        format!(
+                            "the nominal machine cannot put the tip at X{:.4} Y{:.4} Z{z:.4} of the plane with the rotary axes where they stand",
+                            w.x, w.y
+                        ),
+                    )
+                })
+        };
+        let q_bottom = at(bottom)?;
+        self.r_plane = at(r_plane)?;
+        pass.check_travel(&q_bottom, Self::col(cx), cx)?;
+        pass.check_travel(&self.r_plane, Self::col(cx), cx)?;
+        self.cycle = Some(cycle);
+        *q = q_bottom;
+        Ok(true)
+    }
+}
+
 impl Mode for CycleMode {
     fn target(&mut self, b: &mut Block, q: &mut [f64; MAX_AXES]) -> Result<bool, Diagnostic> {
         let (pass, cx, state, _) = b.parts();
@@ -69,6 +128,7 @@ impl Mode for CycleMode {
             return refuse("the machine has no linear X, Y and Z axes");
         };
         self.vars = [vx, vy, vz];
+        self.frame = state.modal.working_plane;
         if state.modal.incremental {
             return refuse(
                 "in incremental mode (G91) its R and Z are relative (program the cycle in G90)",
@@ -115,14 +175,24 @@ impl Mode for CycleMode {
                     .into(),
             ));
         }
+        if self.frame.is_some() {
+            if state.modal.diameter {
+                return refuse("in diameter mode (G7) under a tilted working plane");
+            }
+            pass.plane_checks(cx, state, &self.vars)?;
+        }
         // Z and R are never diameters; X may be (G7).
         let zu = Unit::inch(state.modal.inch);
+        let initial = match self.frame {
+            Some(_) => (state.tip_nominal[2], state.tip_written[2]),
+            None => (state.pos.nominal[vz], state.emitted[vz]),
+        };
         let mut cycle = state.cycle.unwrap_or(Cycle {
             bottom: None,
             r_plane: None,
             bottom_written: None,
             r_written: None,
-            initial: (state.pos.nominal[vz], state.emitted[vz]),
+            initial,
         });
         if let Some(i) = axis_words[vz] {
             cycle.bottom = Some(zu.to_mm(cx.number(i).0));
@@ -133,6 +203,9 @@ impl Mode for CycleMode {
         let (Some(bottom), Some(r_plane)) = (cycle.bottom, cycle.r_plane) else {
             return refuse("it needs its bottom (Z) and retract plane (R)");
         };
+        if let Some(frame) = self.frame {
+            return self.plane_target(b, &frame, cycle, q);
+        }
         for v in [vx, vy] {
             if let Some(i) = axis_words[v] {
                 state.pos.nominal[v] = pass.unit(v, &state.modal).to_mm(cx.number(i).0);
@@ -178,6 +251,22 @@ impl Mode for CycleMode {
         let mut at_r = r_sol.q;
         at_r[vx] = end.q[vx];
         at_r[vy] = end.q[vy];
+        if let Some(frame) = &self.frame {
+            // The controller goes down the plane's Z at the bottom's written X, Y.
+            let length = state.modal.length;
+            self.bottom_words = pass.plane_words(frame, &end.q, length);
+            self.r_words = pass.plane_words(frame, &r_sol.q, length);
+            let over_r = Vector3::new(self.bottom_words.x, self.bottom_words.y, self.r_words.z);
+            at_r = pass
+                .plane_axes(frame, &over_r, &state.emitted, length)
+                .ok_or_else(|| {
+                    Self::refuse(
+                        cx,
+                        "the nominal machine cannot reach the R point above the corrected hole"
+                            .into(),
+                    )
+                })?;
+        }
         let (reached, _) = pass.kin.pose(Model::Actual, &at_r[..n], state.modal.length);
         let off = (reached.p - r_sol.target.p).norm();
         if off > tolerance || end.position_residual > 1e-6 {
@@ -204,10 +293,25 @@ impl Mode for CycleMode {
         };
         let vz = self.vars[2];
         let zu = Unit::inch(state.modal.inch);
-        state.emitted[vz] = cycle.bottom_written.map_or(f64::NAN, |z| zu.to_mm(z));
-        pass.write_positions(cx, &end.q, false, state, out)?;
-        cycle.bottom_written = Some(zu.of_mm(state.emitted[vz]));
-        let r_value = zu.of_mm(r_sol.q[vz]);
+        let r_value = match &self.frame {
+            Some(frame) => {
+                state.tip_written[2] = cycle.bottom_written.map_or(f64::NAN, |z| zu.to_mm(z));
+                pass.write_tip_words(cx, &self.vars, &self.bottom_words, None, state, out);
+                cycle.bottom_written = Some(zu.of_mm(state.tip_written[2]));
+                // What the controller commands for the written words, for the travel limits.
+                let tip = Vector3::from(state.tip_written);
+                if let Some(q) = pass.plane_axes(frame, &tip, &state.emitted, state.modal.length) {
+                    state.emitted = q;
+                }
+                zu.of_mm(self.r_words.z)
+            }
+            None => {
+                state.emitted[vz] = cycle.bottom_written.map_or(f64::NAN, |z| zu.to_mm(z));
+                pass.write_positions(cx, &end.q, false, state, out)?;
+                cycle.bottom_written = Some(zu.of_mm(state.emitted[vz]));
+                zu.of_mm(r_sol.q[vz])
+            }
+        };
         let d = pass.res_decimals(vz, zu);
         let mut editor = cx.editor(out.edits);
         match cx.motion.arc_words[3] {
@@ -252,17 +356,45 @@ impl Mode for CycleMode {
         let (Some(cycle), Some(r_sol)) = (self.cycle, self.r_solution) else {
             return;
         };
-        let _ = pass;
         let vz = self.vars[2];
         let zu = Unit::inch(state.modal.inch);
-        let r_plane = self.r_plane[vz];
-        let r_emitted = cycle.r_written.map_or(r_sol.q[vz], |r| zu.to_mm(r));
+        let r_plane = cycle.r_plane.unwrap_or(self.r_plane[vz]);
+        let r_at = if self.frame.is_some() {
+            self.r_words.z
+        } else {
+            r_sol.q[vz]
+        };
+        let r_emitted = cycle.r_written.map_or(r_at, |r| zu.to_mm(r));
         let (z_nominal, z_emitted) = if state.modal.retract_to_initial && cycle.initial.0 > r_plane
         {
             cycle.initial
         } else {
             (r_plane, r_emitted)
         };
+        if let Some(frame) = &self.frame {
+            state.tip_nominal[2] = z_nominal;
+            state.tip_written[2] = z_emitted;
+            let length = state.modal.length;
+            let (nominal, written) = (
+                Vector3::from(state.tip_nominal),
+                Vector3::from(state.tip_written),
+            );
+            if let Some(q) = pass.plane_axes(frame, &nominal, &state.pos.nominal, length) {
+                state.pos.nominal = q;
+            }
+            if let Some(q) = pass.plane_axes(frame, &written, &state.emitted, length) {
+                state.emitted = q;
+            }
+            for v in 0..pass.kin.len() {
+                state.written[v] = Position::Decimal {
+                    value: state.emitted[v],
+                    decimals: state.decimals[v],
+                    unit: Unit::MM,
+                };
+            }
+            state.cycle = Some(cycle);
+            return;
+        }
         state.pos.nominal[vz] = z_nominal;
         state.emitted[vz] = z_emitted;
         state.written[vz] = Position::Decimal {

@@ -110,7 +110,7 @@ impl Compensator<'_> {
     ) -> Result<bool, Diagnostic> {
         let before = (state.modal.chain, state.modal.spindle);
         let was_tcp = state.modal.tcp.then_some(state.modal.tcp_vector);
-        let was_plane = state.modal.working_plane;
+        let was_plane = (state.modal.working_plane, state.modal.length);
         let read = self.reader.read(line, tokens, &mut state.modal, at, motion);
         if (state.modal.chain, state.modal.spindle) == before {
             // The usual block: the pass stays (a machine with one chain and no lathe never
@@ -149,18 +149,20 @@ impl Compensator<'_> {
     }
 
     /// Follow what a block read changed of the pass's modes: a cycle ended, a tilted
-    /// working plane set (from `was_plane`), tool-centre-point control switched on (from
+    /// working plane set or the tool length changed under one (from `was_plane`),
+    /// tool-centre-point control switched on (from
     /// `was_tcp`: off, or on with or without vectors).
     fn follow_modes(
         &self,
         state: &mut State,
-        (was_tcp, was_plane): (Option<bool>, Option<WorkingPlane>),
+        (was_tcp, was_plane): (Option<bool>, (Option<WorkingPlane>, f64)),
         at: &dyn Fn(usize, String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
         if state.cycle.is_some() && state.modal.motion != Some(Motion::Cycle) {
             state.cycle = None;
         }
-        if state.modal.working_plane != was_plane {
+        // A new plane, or a new tool length under one, moves the tip words.
+        if (state.modal.working_plane, state.modal.length) != was_plane {
             self.passes[state.pass].enter_plane(state);
         }
         if state.modal.tcp

@@ -405,6 +405,10 @@ impl Pass<'_> {
                 summary.note_held(self.axis_name(v));
             }
         }
+        if state.modal.working_plane.is_some() {
+            summary.plane_blocks += 1;
+            summary.plane_direction.update(ad, line);
+        }
         ap
     }
 }

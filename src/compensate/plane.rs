@@ -95,7 +95,7 @@ impl Pass<'_> {
                 return Err(cx.refuse(
                     cx.col(i),
                     format!(
-                        "a {} word under a tilted working plane (G68.2) cannot be compensated: how the controller moves the tip while a rotary axis turns under a plane is not determined (expected X, Y, Z; position the rotary axes with G53.1 or before G68.2)",
+                        "{} words under a tilted working plane (G68.2) cannot be compensated: how the controller moves the tip while a rotary axis turns under a plane is not determined (expected X, Y, Z; position the rotary axes with G53.1 or before G68.2)",
                         pass.letter(v) as char
                     ),
                 ));
@@ -137,18 +137,19 @@ impl Pass<'_> {
     }
 
     /// The nominal axis values at which the tip is at words `w` (mm) of `frame`, the rotary
-    /// axes where they stand: the controller's transformation of the words.
+    /// axes as in `from`: the controller's transformation of the words.
     pub(super) fn plane_axes(
         &self,
         frame: &WorkingPlane,
         w: &Vector3<f64>,
-        state: &State,
+        from: &[f64; MAX_AXES],
+        length: f64,
     ) -> Option<[f64; MAX_AXES]> {
         let n = self.kin.len();
         let sol = self.kin.tcp_axes_with_rotaries(
             &frame.part(w),
-            &state.pos.nominal[..n],
-            state.modal.length,
+            &from[..n],
+            length,
             &self.options.solve,
         );
         (sol.position_residual <= 1e-6).then_some(sol.q)

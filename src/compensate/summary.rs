@@ -11,7 +11,7 @@ pub struct Extreme {
 }
 
 impl Extreme {
-    fn update(&mut self, value: f64, line: usize) {
+    pub(crate) fn update(&mut self, value: f64, line: usize) {
         if value > self.value {
             *self = Extreme { value, line };
         }
@@ -64,6 +64,11 @@ pub struct Summary {
     pub singular_direction: Extreme,
     /// Axes held at singular poses.
     pub held_axes: Vec<String>,
+    /// Blocks in a tilted working plane (G68.2), where the rotary axes stand where G53.1
+    /// put them, and the largest direction error left there (rad; counted in the after
+    /// figures too).
+    pub plane_blocks: usize,
+    pub plane_direction: Extreme,
     /// Blocks whose error-table look-up lay beyond a table's ends (values held).
     pub beyond_table_blocks: usize,
     pub first_beyond_table: usize,
@@ -186,6 +191,13 @@ impl Summary {
                 count(self.singular_blocks, "block"),
                 self.held_axes.join(", "),
                 urad(self.singular_direction)
+            ));
+        }
+        if self.plane_blocks > 0 {
+            out.push(format!(
+                "{} in tilted working planes (G68.2): the rotary axes stood where the controller turned them; direction error left there up to {}",
+                count(self.plane_blocks, "block"),
+                urad(self.plane_direction)
             ));
         }
         if self.turning_blocks > 0 {

@@ -362,7 +362,8 @@ impl Mode for TcpMode {
             .pose(Model::Nominal, end.values(), state.modal.length);
         let programmed_words = self.words(&programmed.p);
         let vector_mode = state.modal.tcp_vector;
-        let rotary = (!vector_mode).then_some(&end.q);
+        // Under a plane the rotary axes have no words: they stay where G53.1 put them.
+        let rotary = (!vector_mode && self.frame.is_none()).then_some(&end.q);
         pass.write_tip_words(cx, &self.tips, &programmed_words, rotary, state, out);
         if vector_mode {
             self.write_vector(pass, cx, &last, state, out);
@@ -524,7 +525,8 @@ impl TcpMode {
             for (c, x) in vector.iter_mut().enumerate() {
                 *x = round(programmed.o[c] * self.scale, decimals);
             }
-        } else {
+        } else if self.frame.is_none() {
+            // Rotary words as written; under a plane they stand where G53.1 put them.
             for (v, x) in guess.iter_mut().enumerate().take(n) {
                 if pass.kin.kind(v) == AxisKind::Rotary {
                     *x = round(*x, state.decimals[v].max(pass.decimals.1));
@@ -760,7 +762,12 @@ impl TcpMode {
             let singular =
                 pass.kin
                     .singular_axes(&target, &jac.axis_dir, pass.options.solve.singular_angle);
-            if singular == 0 && angle_between(&actual.o, &target.o) > tol.direction {
+            // Under a plane the rotary axes are held: the direction error is the pose's,
+            // reported, and no split changes it.
+            if singular == 0
+                && self.frame.is_none()
+                && angle_between(&actual.o, &target.o) > tol.direction
+            {
                 return false;
             }
         }
@@ -799,7 +806,7 @@ impl TcpMode {
                         let f = if inch { INCH } else { 1.0 };
                         (piece.tip[c] / f, state.tip_written[c] / f, d)
                     }
-                    None if state.modal.tcp_vector => continue,
+                    None if state.modal.tcp_vector || self.frame.is_some() => continue,
                     None => (
                         piece.ctrl[v],
                         state.emitted[v],

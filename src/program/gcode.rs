@@ -721,6 +721,7 @@ impl Reader<'_> {
             state.ended = Some(line.number);
         }
         if let Some(code) = plane_words.or(to_plane) {
+            out.arc_words = arc_words;
             return self.working_plane(tokens, state, at, out, code, plane_words.is_some());
         }
         if let Some(col) = o_word {
