@@ -176,6 +176,11 @@ impl Mode for CycleMode {
             ));
         }
         if self.frame.is_some() {
+            if state.zero != [0.0; 3] {
+                return refuse(
+                    "under a tilted working plane with a program zero other than the machine file's geometry zero (a work offset or G52 shift)",
+                );
+            }
             if state.modal.diameter {
                 return refuse("in diameter mode (G7) under a tilted working plane");
             }

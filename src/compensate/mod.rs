@@ -91,7 +91,14 @@ pub struct Compensator<'m> {
     zero_model: bool,
     /// `Options::threads`.
     threads: usize,
+    /// Passes for program zeros other than the machine file's geometry zero (work offsets,
+    /// G52): the pass they shift (index into `passes`), the shift, the shifted pass. Made
+    /// when a program first uses them.
+    shifted: Vec<std::sync::OnceLock<(usize, [f64; 3], Pass<'m>)>>,
 }
+
+/// How many different program zeros one program may use.
+const MAX_ZEROS: usize = 64;
 
 /// The pass for one configuration: one tool chain, milling or turning.
 #[derive(Debug, Clone)]
@@ -119,6 +126,9 @@ struct Pass<'m> {
     /// The variables in the usual order of words in a block (X Y Z ... A B C): words added
     /// at one place come out in that order.
     write_order: Vec<usize>,
+    /// Program zero from the machine file's geometry zero, by variable (mm; 0 for rotary
+    /// axes): the kinematics and travels are shifted by it.
+    shift: [f64; MAX_AXES],
 }
 
 /// The pass's state between blocks: the program's modal state (as the reader follows it)
@@ -169,6 +179,10 @@ struct State {
     presolved: presolve::Presolved,
     /// Emptied texts of earlier edits, to write new ones in without allocating.
     spare_texts: Vec<Vec<u8>>,
+    /// The program zero the positions above are in (see [`Modal::shift`]), and the shifted
+    /// pass for it (index into [`Compensator::shifted`]; `None`: the geometry's zero).
+    zero: [f64; 3],
+    shifted: Option<usize>,
     /// The pieces of the move being checked for splitting, reused from block to block.
     pieces: Vec<crate::kinematics::path::Piece>,
 }
@@ -201,7 +215,72 @@ impl<'m> Compensator<'m> {
             start,
             zero_model: errors.is_zero(),
             threads: options.threads,
+            shifted: (0..MAX_ZEROS).map(|_| std::sync::OnceLock::new()).collect(),
         })
+    }
+
+    /// The pass a block goes through: its tool chain's and mode's, for its program zero.
+    fn pass(&self, state: &State) -> &Pass<'m> {
+        match state.shifted.and_then(|k| self.shifted[k].get()) {
+            Some((base, _, pass)) if *base == state.pass => pass,
+            _ => &self.passes[state.pass],
+        }
+    }
+
+    /// Follow a change of program zero (a work offset, G10, G52): the positions the pass
+    /// keeps move into the new zero's coordinates, and blocks go through a pass shifted
+    /// by it. Refused where a block moves while the zero is not known.
+    fn follow_shift(&self, state: &mut State, moves: bool) -> Result<(), String> {
+        let Some(shift) = state.modal.shift else {
+            if moves {
+                let name = crate::model::WorkOffsets::name(&state.modal.work_offset.unwrap_or(540));
+                return Err(format!(
+                    "where program zero lies is not known: the machine file's [work_offsets] does not give {name} and the program has not set it (expected {name} in [work_offsets] or a G10 L2/L20 setting it before this block)"
+                ));
+            }
+            return Ok(());
+        };
+        let base = &self.passes[state.pass];
+        if shift != state.zero {
+            // The axes stay where they are: their program coordinates change.
+            for (c, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+                if let Some(v) = base.tip_var(letter) {
+                    let d = state.zero[c] - shift[c];
+                    state.pos.nominal[v] += d;
+                    state.emitted[v] += d;
+                    state.written[v] = Position::Decimal {
+                        value: state.emitted[v],
+                        decimals: state.decimals[v],
+                        unit: Unit::MM,
+                    };
+                }
+            }
+            state.zero = shift;
+        }
+        if shift == [0.0; 3] {
+            state.shifted = None;
+            return Ok(());
+        }
+        if self.machine.lathe.is_some() {
+            return Err("a program zero other than the machine file's geometry zero on a lathe cannot be compensated (the turning kinematics assume the geometry's zero)".into());
+        }
+        for (k, slot) in self.shifted.iter().enumerate() {
+            match slot.get() {
+                Some((p, s, _)) if *p == state.pass && *s == shift => {
+                    state.shifted = Some(k);
+                    return Ok(());
+                }
+                Some(_) => {}
+                None => {
+                    let _ = slot.set((state.pass, shift, base.shifted(shift)));
+                    state.shifted = Some(k);
+                    return Ok(());
+                }
+            }
+        }
+        Err(format!(
+            "this program uses more than {MAX_ZEROS} different program zeros (work offsets and G52 shifts)"
+        ))
     }
 
     /// The kinematics a program starts with: its tool chain's, milling.
@@ -301,6 +380,8 @@ impl<'m> Compensator<'m> {
             presolved: presolve::Presolved::default(),
             spare_texts: Vec::new(),
             pieces: Vec::new(),
+            zero: [0.0; 3],
+            shifted: None,
         };
         for v in 0..first.kin.len() {
             state.decimals[v] = first.res_decimals(v, Unit::MM);
@@ -342,6 +423,7 @@ impl<'m> Pass<'m> {
             spindle: 0,
             idle: 0,
             write_order: Vec::new(),
+            shift: [0.0; MAX_AXES],
         };
         let mut order: Vec<usize> = (0..kin.len()).collect();
         order.sort_by_key(|&v| axis_order(pass.letter(v)));
@@ -413,7 +495,29 @@ impl<'m> Pass<'m> {
     }
 
     fn travel(&self, var: usize) -> Option<[f64; 2]> {
-        self.machine.axes[self.kin.axes()[var]].travel
+        let shift = self.shift[var];
+        self.machine.axes[self.kin.axes()[var]]
+            .travel
+            .map(|[lo, hi]| [lo - shift, hi - shift])
+    }
+
+    /// The variable a linear X, Y or Z word drives, if any.
+    fn tip_var(&self, letter: u8) -> Option<usize> {
+        self.axes.var_of_letter[(letter - b'A') as usize].filter(|&v| self.is_linear(v))
+    }
+
+    /// This pass for a program zero `shift` (X Y Z, mm) from the geometry's.
+    fn shifted(&self, shift: [f64; 3]) -> Pass<'m> {
+        let mut by_var = [0.0; MAX_AXES];
+        for (c, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+            if let Some(v) = self.tip_var(letter) {
+                by_var[v] = shift[c];
+            }
+        }
+        let mut pass = self.clone();
+        pass.kin = self.kin.shifted(&by_var);
+        pass.shift = by_var;
+        pass
     }
 }
 

@@ -189,6 +189,7 @@ impl Predictor {
                 || self.modal.incremental
                 || self.modal.tcp
                 || self.modal.working_plane.is_some()
+                || self.modal.shift != Some([0.0; 3])
                 || self.modal.motion != Some(Motion::Line)
             {
                 continue;

@@ -132,6 +132,7 @@ impl<'c, 'm> Run<'c, 'm> {
         let result = comp
             .read(line, tokens, state, summary, &at, motion)
             .and_then(|moves| {
+                comp.follow_shift(state, moves).map_err(|m| at(0, m))?;
                 if !moves {
                     return Ok(());
                 }
@@ -142,9 +143,9 @@ impl<'c, 'm> Run<'c, 'm> {
                     at: &at,
                 };
                 let mut out = Out { edits, summary };
-                comp.passes[state.pass].block(&cx, state, &mut out)
+                comp.pass(state).block(&cx, state, &mut out)
             });
-        let pass = &comp.passes[state.pass];
+        let pass = comp.pass(state);
         if summary.motion_blocks > blocks {
             if pass.turning {
                 summary.turning_blocks += summary.motion_blocks - blocks;

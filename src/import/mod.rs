@@ -146,6 +146,7 @@ fn iso_machine() -> Machine {
         lathe: None,
         codes: Default::default(),
         plane_solution: Default::default(),
+        work_offsets: None,
     }
 }
 

@@ -256,6 +256,9 @@ pub(super) struct Joint {
     k2: M3,
     motion: Option<MotionTable>,
     table_offset: f64,
+    /// Linear: added to the variable's value (a work offset other than the one the
+    /// machine file's geometry is given in moves program zero along the axis).
+    pub shift: f64,
 }
 
 impl Joint {
@@ -280,6 +283,7 @@ impl Joint {
             k2: k * k,
             motion,
             table_offset,
+            shift: 0.0,
         }
     }
 
@@ -293,6 +297,7 @@ impl Joint {
         sc: (f64, f64),
         beyond: &mut bool,
     ) -> (Rigid, bool, Twist) {
+        let q = q + self.shift;
         // E(q) = Tr(δ)·Rv(ε) about the joint's reference point.
         let e = self.motion.as_ref().map(|m| {
             let (s, slope) = m.sample_with_slope(q + self.table_offset);

@@ -188,6 +188,20 @@ impl Kinematics {
         })
     }
 
+    /// These kinematics with the linear variables' values shifted by `shift` (mm): a
+    /// program zero `shift` away from the one the machine file's geometry is given in.
+    pub fn shifted(&self, shift: &[f64]) -> Kinematics {
+        let mut kin = self.clone();
+        for chains in [&mut kin.nominal, &mut kin.actual] {
+            for joint in chains.workpiece.iter_mut().chain(chains.tool.iter_mut()) {
+                if joint.kind == AxisKind::Linear {
+                    joint.shift = shift.get(joint.var).copied().unwrap_or(0.0);
+                }
+            }
+        }
+        kin
+    }
+
     /// Number of variables (axes of the active configuration).
     pub fn len(&self) -> usize {
         self.axes.len()

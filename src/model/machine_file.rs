@@ -30,7 +30,7 @@
 
 use super::limits::{self, shown};
 use super::terms::{is_axis_name, or_list, suggest};
-use super::{Axis, AxisKind, Chain, Lathe, Machine, PlaneSolution, Resolution, Tool};
+use super::{Axis, AxisKind, Chain, Lathe, Machine, PlaneSolution, Resolution, Tool, WorkOffsets};
 use crate::program::{self, CodeName, MachineCodes};
 use crate::{Error, Result};
 use nalgebra::Vector3;
@@ -66,6 +66,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
             "lathe",
             "codes",
             "working_plane",
+            "work_offsets",
         ],
         "the machine file",
     )?;
@@ -263,6 +264,11 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         None => PlaneSolution::default(),
     };
 
+    let work_offsets = match root.get("work_offsets") {
+        Some(v) => Some(work_offsets(&doc, v)?),
+        None => None,
+    };
+
     Ok(Machine {
         name,
         axes,
@@ -273,6 +279,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         lathe,
         codes,
         plane_solution,
+        work_offsets,
     })
 }
 
@@ -465,6 +472,70 @@ fn working_plane(doc: &Doc, v: &Spanned<DeValue>, axes: &[Axis]) -> Result<Plane
             ),
         )),
     }
+}
+
+/// `[work_offsets]`: `geometry = "G54"` (the offset whose program zero the geometry is
+/// given in; machine zero when left out) and one table `{ X = …, Y = …, Z = … }` per
+/// offset (`G54` … `G59`, `G59.1` … `G59.3`, `"G54.1 P1"` …), in machine coordinates.
+fn work_offsets(doc: &Doc, v: &Spanned<DeValue>) -> Result<WorkOffsets> {
+    let what =
+        "[work_offsets], a table of offsets such as `G54 = { X = -250.0, Y = -180.0, Z = -420.0 }`";
+    let t = doc.table(v, what)?;
+    let mut offsets = WorkOffsets::default();
+    let expected = "expected G54 … G59, G59.1 … G59.3 or \"G54.1 P1\" … \"G54.1 P300\"";
+    for (key, value) in t.iter() {
+        let k: &str = key.get_ref();
+        if k == "geometry" {
+            let text = doc.string(value, "`geometry` of [work_offsets]")?;
+            if text.eq_ignore_ascii_case("G53") || text.eq_ignore_ascii_case("machine") {
+                continue;
+            }
+            let Some(code) = WorkOffsets::code(text) else {
+                return Err(doc.err(
+                    value.span(),
+                    format!("`{text}` in `geometry` of [work_offsets]: {expected}, or \"G53\" for machine zero"),
+                ));
+            };
+            offsets.geometry = Some(code);
+            continue;
+        }
+        let Some(code) = WorkOffsets::code(k) else {
+            return Err(doc.err(
+                key.span(),
+                format!("unknown key `{k}` in [work_offsets]: {expected} (or `geometry`)"),
+            ));
+        };
+        let place = format!("[work_offsets] {k}");
+        let entry = doc.table(
+            value,
+            &format!("{place}, a table such as {{ X = 0, Y = 0, Z = 0 }}"),
+        )?;
+        doc.check_keys(entry, &["X", "Y", "Z"], &place)?;
+        let mut xyz = [0.0; 3];
+        for (c, letter) in ["X", "Y", "Z"].iter().enumerate() {
+            if let Some(n) = entry.get(*letter) {
+                xyz[c] = doc.number_in(
+                    n,
+                    &format!("{letter} of {place}"),
+                    Bounds::within(limits::LENGTH_MM, "mm"),
+                )?;
+            }
+        }
+        offsets.values.insert(code, xyz);
+    }
+    if let Some(g) = offsets.geometry
+        && !offsets.values.contains_key(&g)
+    {
+        let span = t.get("geometry").map_or(v.span(), |g| g.span());
+        return Err(doc.err(
+            span,
+            format!(
+                "`geometry` of [work_offsets] names {}, which the table does not give: expected its values in the table",
+                WorkOffsets::name(&g)
+            ),
+        ));
+    }
+    Ok(offsets)
 }
 
 /// A chain's `tools = [1, 2, 3]`: T numbers, each in one chain only.

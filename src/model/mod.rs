@@ -193,6 +193,53 @@ pub struct Machine {
     pub codes: crate::program::MachineCodes,
     /// Which rotary solution the controller's G53.1 takes (machine file `[working_plane]`).
     pub plane_solution: PlaneSolution,
+    /// The controller's work offsets (machine file `[work_offsets]`); `None`: the machine
+    /// file's geometry is in the program zero of the one work offset a program uses.
+    pub work_offsets: Option<WorkOffsets>,
+}
+
+/// The work offset table of a controller: where each program zero lies, in machine
+/// coordinates (the values on the control's offset page), X, Y, Z in mm.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct WorkOffsets {
+    /// The offset whose program zero the machine file's geometry is given in (its code,
+    /// see [`WorkOffsets::code`]); `None`: machine zero (G53).
+    pub geometry: Option<i64>,
+    /// Values by offset code.
+    pub values: BTreeMap<i64, [f64; 3]>,
+}
+
+impl WorkOffsets {
+    /// The code of an offset: G54 … G59 by their number times ten (540 … 590, 591 … 593
+    /// for G59.1 … G59.3), G54.1 Pn as 100 000 + n.
+    pub fn code(name: &str) -> Option<i64> {
+        let name = name.trim().to_ascii_uppercase();
+        if let Some(p) = name
+            .strip_prefix("G54.1")
+            .map(|r| r.trim_start())
+            .and_then(|r| r.strip_prefix('P'))
+        {
+            return p
+                .parse::<i64>()
+                .ok()
+                .filter(|n| (1..=300).contains(n))
+                .map(|n| 100_000 + n);
+        }
+        let g: f64 = name.strip_prefix('G')?.parse().ok()?;
+        let code = (g * 10.0).round() as i64;
+        ([540, 550, 560, 570, 580, 590, 591, 592, 593].contains(&code)
+            && (g * 10.0 - code as f64).abs() < 1e-9)
+            .then_some(code)
+    }
+
+    /// The name of offset `code`, as a program writes it.
+    pub fn name(code: &i64) -> String {
+        match *code {
+            c if c > 100_000 => format!("G54.1 P{}", c - 100_000),
+            c if c % 10 == 0 => format!("G{}", c / 10),
+            c => format!("G{}.{}", c / 10, c % 10),
+        }
+    }
 }
 
 /// Which of the rotary positions that turn the tool perpendicular to a tilted working plane

@@ -169,6 +169,128 @@ impl Reader<'_> {
     /// nothing) or a G53.1 block (the rotary axes turn the tool to the plane: a motion of
     /// the controller's own). Either takes no other motion or axis words.
     #[allow(clippy::too_many_arguments)]
+    /// G10 L2 / L20 (work offset values) and G52 (a local shift): the block's X, Y, Z
+    /// words are data; the program zero moves. Nothing moves.
+    #[allow(clippy::too_many_arguments)]
+    fn offset_data(
+        &self,
+        line: &nc::Line<'_>,
+        tokens: &[Token],
+        state: &mut Modal,
+        at: At<'_>,
+        out: &mut BlockMotion,
+        code: usize,
+        code10: i64,
+    ) -> Result<bool, Diagnostic> {
+        let words = &self.chains[state.chain];
+        let name = code_text(line.content, &tokens[code]);
+        let col = tokens[code].span.start;
+        let mut xyz: [Option<f64>; 3] = [None; 3];
+        for (v, word) in out.axis_words.iter().enumerate().take(words.len()) {
+            let Some(i) = *word else { continue };
+            let value = match &tokens[i].kind {
+                TokenKind::Word(w) => w.number().unwrap_or(0.0),
+                _ => 0.0,
+            };
+            match b"XYZ".iter().position(|&l| l == words.letters[v]) {
+                Some(c) if words.is_linear(v) => {
+                    xyz[c] = Some(if state.inch {
+                        value * super::INCH
+                    } else {
+                        value
+                    });
+                }
+                _ => {
+                    return Err(at(
+                        tokens[i].span.start,
+                        format!(
+                            "{} words in {name} cannot be compensated: offsets of axes other than X, Y, Z are not supported (expected X, Y, Z)",
+                            words.letters[v] as char
+                        ),
+                    ));
+                }
+            }
+        }
+        if code10 == 520 {
+            if state.incremental {
+                return Err(at(
+                    col,
+                    format!(
+                        "{name} in incremental mode (G91) cannot be compensated (expected the shift in G90)"
+                    ),
+                ));
+            }
+            for (c, x) in xyz.iter().enumerate() {
+                if let Some(x) = x {
+                    state.local_shift[c] = *x;
+                }
+            }
+            state.shift = state.shift_from(self.machine);
+            return Ok(false);
+        }
+        let l = letter_number(tokens, b'L');
+        let p = p_number(tokens);
+        let target = match (l, p) {
+            (Some(l), Some(p)) if l == 2.0 && p.fract() == 0.0 && (0.0..=6.0).contains(&p) => {
+                if p == 0.0 { 0 } else { 530 + 10 * p as i64 }
+            }
+            (Some(l), Some(p)) if l == 20.0 && p.fract() == 0.0 && (1.0..=300.0).contains(&p) => {
+                100_000 + p as i64
+            }
+            (Some(l), _) if l != 2.0 && l != 20.0 => {
+                return Err(at(
+                    col,
+                    format!(
+                        "{name} L{l} cannot be compensated: it sets data other than work offsets (tool offsets, parameters), which is not supported (G10 L2 and L20 set work offsets)"
+                    ),
+                ));
+            }
+            _ => {
+                return Err(at(
+                    col,
+                    format!(
+                        "{name} cannot be compensated: expected L2 P0 … P6 (G54 … G59; P0 the external offset) or L20 P1 … P300 (G54.1 P1 …) with the offset's X, Y, Z"
+                    ),
+                ));
+            }
+        };
+        let table = self.machine.work_offsets.as_ref();
+        let known = state
+            .offsets
+            .iter()
+            .rev()
+            .find(|(c, _)| *c == target)
+            .map(|(_, v)| *v)
+            .or_else(|| table.and_then(|t| t.values.get(&target).copied()))
+            .or((target == 0).then_some([0.0; 3]));
+        let mut value = [0.0; 3];
+        for c in 0..3 {
+            value[c] = match (xyz[c], known, state.incremental) {
+                (Some(x), _, false) => x,
+                (Some(x), Some(k), true) => k[c] + x,
+                (None, Some(k), _) => k[c],
+                (_, None, _) => {
+                    let offset = if target == 0 {
+                        "the external offset".to_string()
+                    } else {
+                        crate::model::WorkOffsets::name(&target)
+                    };
+                    return Err(at(
+                        col,
+                        format!(
+                            "{name} leaves {} of {offset} as it was, and the machine file's [work_offsets] does not give it (expected X, Y and Z in G90, or {offset} in [work_offsets])",
+                            ["X", "Y", "Z"][c]
+                        ),
+                    ));
+                }
+            };
+        }
+        state.offsets.retain(|(c, _)| *c != target);
+        state.offsets.push((target, value));
+        state.shift = state.shift_from(self.machine);
+        Ok(false)
+    }
+
     fn working_plane(
         &self,
         tokens: &[Token],
@@ -432,6 +554,12 @@ impl Reader<'_> {
         // G68.2 (its X Y Z I J K are the plane's data) and G53.1.
         let mut plane_words: Option<usize> = None;
         let mut to_plane: Option<usize> = None;
+        // With a work offset table: G10 and G52 (their axis words are offset data), G54.1,
+        // and whether the program zero changes.
+        let offset_table = self.machine.work_offsets.is_some();
+        let mut offset_data: Option<(usize, i64)> = None;
+        let mut extended: Option<usize> = None;
+        let mut zero_changed = false;
         for (i, t) in tokens.iter().enumerate() {
             let w = match &t.kind {
                 TokenKind::Word(w) => w,
@@ -506,7 +634,21 @@ impl Reader<'_> {
                     if smoothing_switch(code10, tokens) {
                         continue;
                     }
-                    match self.code(b'G', code10) {
+                    let code = self.code(b'G', code10);
+                    if offset_table {
+                        match code {
+                            Code::DataSetting(_) if code10 == 100 || code10 == 520 => {
+                                offset_data = Some((i, code10));
+                                continue;
+                            }
+                            Code::ExtendedWorkOffset => {
+                                extended = Some(i);
+                                continue;
+                            }
+                            _ => {}
+                        }
+                    }
+                    match code {
                         code @ (Code::Unsupported(_)
                         | Code::Unknown
                         | Code::DataSetting(_)
@@ -565,6 +707,10 @@ impl Reader<'_> {
                         }
                         Code::TcpOff => tcp_off = true,
                         Code::ToolLengthOff => g49 = true,
+                        Code::WorkOffset(code) if offset_table => {
+                            state.work_offset = Some(code);
+                            zero_changed = true;
+                        }
                         Code::WorkOffset(code) => {
                             if let Some(prev) = state.work_offset
                                 && prev != code
@@ -719,6 +865,32 @@ impl Reader<'_> {
         }
         if returned.is_some() {
             state.ended = Some(line.number);
+        }
+        if let Some(i) = extended {
+            let p = p_number(tokens).filter(|p| p.fract() == 0.0 && (1.0..=300.0).contains(p));
+            let Some(p) = p else {
+                return Err(refuse_code(
+                    &tokens[i],
+                    "needs the number of the extended work offset: expected P1 … P300".into(),
+                ));
+            };
+            state.work_offset = Some(100_000 + p as i64);
+            zero_changed = true;
+        }
+        if let Some((i, code10)) = offset_data {
+            if let Some((_, col)) = motion_in_block {
+                return Err(at(
+                    col,
+                    format!(
+                        "a move in the block of {} cannot be compensated (expected the offset data alone in its block)",
+                        code_text(line.content, &tokens[i])
+                    ),
+                ));
+            }
+            return self.offset_data(line, tokens, state, at, out, i, code10);
+        }
+        if zero_changed {
+            state.shift = state.shift_from(self.machine);
         }
         if let Some(code) = plane_words.or(to_plane) {
             out.arc_words = arc_words;
@@ -917,4 +1089,17 @@ pub fn make_linear(
         }
         (None, None) => {}
     }
+}
+
+/// The number of the block's first word with `letter`, if it is a number.
+fn letter_number(tokens: &[Token], letter: u8) -> Option<f64> {
+    tokens.iter().find_map(|t| match &t.kind {
+        TokenKind::Word(w) if w.letter == letter => w.number(),
+        _ => None,
+    })
+}
+
+/// The number of the block's P word, if it is a number.
+fn p_number(tokens: &[Token]) -> Option<f64> {
+    letter_number(tokens, b'P')
 }

@@ -175,8 +175,18 @@ pub struct Modal {
     pub length: f64,
     /// The last T number.
     pub tool: Option<u32>,
-    /// The work offset in force (G54 … by its number times ten).
+    /// The work offset in force (G54 … by its number times ten, G54.1 Pn as 100 000 + n;
+    /// see [`crate::model::WorkOffsets::code`]).
     pub work_offset: Option<i64>,
+    /// Work offset values the program set (G10 L2 / L20), by offset code (0: the external
+    /// offset, G10 L2 P0), X Y Z in mm, in machine coordinates.
+    pub offsets: Vec<(i64, [f64; 3])>,
+    /// G52's local shift (X Y Z, mm).
+    pub local_shift: [f64; 3],
+    /// Where program zero lies from the zero the machine file's geometry is given in
+    /// (X Y Z, mm): the work offset in force, the external offset and G52's shift, less
+    /// the geometry's offset. `None`: the value of the offset in force is not known.
+    pub shift: Option<[f64; 3]>,
     /// The line of the M99 that ended the program.
     pub ended: Option<usize>,
     /// A tilted working plane in force (G68.2 … G69).
@@ -190,6 +200,39 @@ pub struct Modal {
 impl Modal {
     /// The state at the program start, in tool chain `chain`.
     pub fn start(machine: &Machine, chain: usize) -> Modal {
+        let mut modal = Modal::fresh(machine, chain);
+        modal.shift = modal.shift_from(machine);
+        modal
+    }
+
+    /// Program zero from the machine file's geometry zero, for the offsets in force (see
+    /// [`Modal::shift`]); always zero without a `[work_offsets]` table (the geometry is
+    /// then in the one program zero a program uses).
+    pub fn shift_from(&self, machine: &Machine) -> Option<[f64; 3]> {
+        let Some(table) = &machine.work_offsets else {
+            return Some([0.0; 3]);
+        };
+        let value = |code: i64| {
+            self.offsets
+                .iter()
+                .rev()
+                .find(|(c, _)| *c == code)
+                .map(|(_, v)| *v)
+                .or_else(|| table.values.get(&code).copied())
+        };
+        // At power-on a Fanuc control is in G54.
+        let active = value(self.work_offset.unwrap_or(540))?;
+        let external = value(0).unwrap_or([0.0; 3]);
+        let geometry = table
+            .geometry
+            .and_then(|g| table.values.get(&g).copied())
+            .unwrap_or([0.0; 3]);
+        Some(std::array::from_fn(|c| {
+            active[c] + external[c] + self.local_shift[c] - geometry[c]
+        }))
+    }
+
+    fn fresh(machine: &Machine, chain: usize) -> Modal {
         Modal {
             inch: false,
             diameter: machine.lathe.is_some_and(|l| l.diameter),
@@ -206,6 +249,9 @@ impl Modal {
             length: machine.tool.length,
             tool: None,
             work_offset: None,
+            offsets: Vec::new(),
+            local_shift: [0.0; 3],
+            shift: Some([0.0; 3]),
             ended: None,
             working_plane: None,
             chain,

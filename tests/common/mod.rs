@@ -55,6 +55,7 @@ pub fn ac_trunnion(a_point: [f64; 3], c_point: [f64; 3]) -> Machine {
         lathe: None,
         codes: Default::default(),
         plane_solution: Default::default(),
+        work_offsets: None,
     }
 }
 
@@ -80,6 +81,7 @@ pub fn head_head(pivot: f64) -> Machine {
         lathe: None,
         codes: Default::default(),
         plane_solution: Default::default(),
+        work_offsets: None,
     }
 }
 
