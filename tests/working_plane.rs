@@ -657,6 +657,11 @@ fn what_a_plane_cannot_do_is_refused_where_it_stands() {
             "p.nc:5:1",
             "G53.1 turns the tool to the tilted working plane, but no plane is set (expected G68.2 before it)",
         ),
+        (
+            "G53.1 P1\n",
+            "p.nc:4:7",
+            "P words are not expected in G53.1",
+        ),
         ("G53.1 X0\n", "p.nc:4:7", "G53.1 takes no axis words"),
         (
             "G53.1\nG43.4 H1\n",

@@ -168,6 +168,7 @@ impl Predictor {
             };
             let pass = &comp.passes[index];
             nc::parse_line(line.content, &mut self.tokens);
+            crate::program::params::substitute(line.content, &mut self.tokens, &self.modal.params);
             let Ok(moves) =
                 comp.reader
                     .read(&line, &self.tokens, &mut self.modal, &at, &mut self.motion)

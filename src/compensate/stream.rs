@@ -115,6 +115,7 @@ impl<'c, 'm> Run<'c, 'm> {
             return self.errors.len() < comp.passes[state.pass].options.max_errors;
         }
         nc::parse_line(line.content, &mut self.tokens);
+        crate::program::params::substitute(line.content, &mut self.tokens, &state.modal.params);
         // The texts of the last line's edits hold their allocations for this line's.
         // (A few: edits made elsewhere do not take from them.)
         for edit in self.edits.drain(..) {

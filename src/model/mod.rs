@@ -252,7 +252,7 @@ pub enum PlaneSolution {
     #[default]
     Shortest,
     /// The solution with this axis (index into [`Machine::axes`]) at a positive (or zero)
-    /// angle, or at a negative one: Heidenhain's SEQ+ / SEQ-, LinuxCNC's G53.1 P1 / P2.
+    /// angle, or at a negative one: Heidenhain's SEQ+ / SEQ-.
     Sign { axis: usize, positive: bool },
 }
 

@@ -312,6 +312,35 @@ impl Reader<'_> {
                 "a tilted working plane under tool-centre-point control cannot be compensated (expected G49 before G68.2)".into(),
             ));
         }
+        // Other controls' variants (Mazak's G68.2 P1 roll-pitch-yaw, LinuxCNC's G53.1 P
+        // turning directions) give P, Q … their own meanings: not guessed.
+        let allowed: &[u8] = if set { b"GNXYZIJK" } else { b"GN" };
+        if let Some((t, letter)) = tokens.iter().find_map(|t| match &t.kind {
+            TokenKind::Word(w) if !allowed.contains(&w.letter) && !b"XYZ".contains(&w.letter) => {
+                Some((t, w.letter))
+            }
+            _ => None,
+        }) && !(set
+            && out
+                .axis_words
+                .iter()
+                .flatten()
+                .any(|&i| tokens[i].span == t.span))
+        {
+            return Err(at(
+                t.span.start,
+                format!(
+                    "{} words are not expected in {} (expected {})",
+                    letter as char,
+                    if set { "G68.2" } else { "G53.1" },
+                    if set {
+                        "X, Y, Z for the plane's origin and I, J, K for its Euler angles"
+                    } else {
+                        "G53.1 on its own"
+                    }
+                ),
+            ));
+        }
         if !set {
             if state.working_plane.is_none() {
                 return Err(at(
@@ -609,11 +638,17 @@ impl Reader<'_> {
                         ),
                     ));
                 }
+                // Words that never move a block end may keep a parameter nccomp does not
+                // know (a feed, a dwell, a peck).
+                Value::Parameter if matches!(letter, 'F' | 'S' | 'P' | 'Q' | 'L' | 'E') => {
+                    continue;
+                }
                 Value::Parameter => {
+                    let text = String::from_utf8_lossy(&line.content[w.value_span.clone()]);
                     return Err(at(
                         t.span.start,
                         format!(
-                            "{letter} is given by a parameter; parameters cannot be compensated (expected a number)"
+                            "{letter} is given by a parameter, {text}, whose value is not known from the program: a system variable, or a parameter the program has not set to a constant before this block (expected a number, or a parameter set to one such as #100 = 12.5)"
                         ),
                     ));
                 }
@@ -829,6 +864,16 @@ impl Reader<'_> {
                         }
                     }
                 }
+            }
+        }
+        if let Some(off) = other_text
+            && line.content[off] == b'#'
+        {
+            let assigned = super::params::assign(&line.content[off..], &mut state.params)
+                .map_err(|(o, m)| at(off + o, m))?;
+            if assigned && optional {
+                // Whether the block runs is not known: neither is the value.
+                super::params::forget(&line.content[off..], &mut state.params);
             }
         }
         if let Some(off) = other_text {

@@ -21,6 +21,7 @@ pub mod codes;
 pub mod exact;
 pub mod gcode;
 pub mod moves;
+pub mod params;
 
 pub use codes::{Code, CodeName, MachineCodes, Tcp};
 
@@ -183,6 +184,8 @@ pub struct Modal {
     pub offsets: Vec<(i64, [f64; 3])>,
     /// G52's local shift (X Y Z, mm).
     pub local_shift: [f64; 3],
+    /// The parameters the program has assigned (`#100 = 12.5`).
+    pub params: params::Params,
     /// Where program zero lies from the zero the machine file's geometry is given in
     /// (X Y Z, mm): the work offset in force, the external offset and G52's shift, less
     /// the geometry's offset. `None`: the value of the offset in force is not known.
@@ -251,6 +254,7 @@ impl Modal {
             work_offset: None,
             offsets: Vec::new(),
             local_shift: [0.0; 3],
+            params: params::Params::default(),
             shift: Some([0.0; 3]),
             ended: None,
             working_plane: None,

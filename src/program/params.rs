@@ -1,0 +1,164 @@
+//! Parameters (Fanuc macro variables `#100`, LinuxCNC's `#<name>`): the ones a program sets
+//! to a constant are known from its text, so a word that uses one means that number.
+//!
+//! An assignment line (`#100 = 12.5`, `#<depth> = -3.`) records the value; an assignment
+//! of anything else (an expression, another parameter, a system variable) makes the
+//! parameter's value unknown, and a word that needs it is refused where it stands. Before a
+//! line is read, [`substitute`] replaces each parameter word whose value is known by that
+//! number, so the rest of the pass reads it as a number; a word that is corrected is then
+//! written as a number (the editor replaces the value's bytes), one that is not keeps its
+//! bytes. Writing to the controller's offset variables (Fanuc #2000–#2999 tool offsets,
+//! #5000–#5999 work offsets and positions; LinuxCNC's #5xxx) would move program zero or the
+//! tool length: that is refused.
+
+use crate::nc::{Token, TokenKind, Value};
+
+/// A parameter's value as the program set it: the number and its decimals as written, or
+/// `None` when it is not a constant.
+pub type Known = Option<(f64, u8)>;
+
+/// Parameters the program has assigned, in order of first assignment.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Params {
+    values: Vec<(String, Known)>,
+}
+
+impl Params {
+    /// The value of parameter `name` (`100`, `<depth>` lowercased): `None` when the
+    /// program never set it, `Some(None)` when it set it to something not constant.
+    pub fn get(&self, name: &str) -> Option<Known> {
+        self.values.iter().find(|(n, _)| n == name).map(|(_, v)| *v)
+    }
+
+    fn set(&mut self, name: String, value: Known) {
+        match self.values.iter_mut().find(|(n, _)| *n == name) {
+            Some(slot) => slot.1 = value,
+            None => self.values.push((name, value)),
+        }
+    }
+}
+
+/// The name of a parameter reference `#100` or `#<Name>` (lowercased), or `None` for an
+/// indirect one (`##1`, `#[…]`).
+pub fn name_of(text: &[u8]) -> Option<String> {
+    let rest = text.strip_prefix(b"#")?;
+    if rest.first().is_some_and(u8::is_ascii_digit) && rest.iter().all(u8::is_ascii_digit) {
+        let n: u64 = std::str::from_utf8(rest).ok()?.parse().ok()?;
+        return Some(n.to_string());
+    }
+    if rest.starts_with(b"<") && rest.ends_with(b">") {
+        let inner: Vec<u8> = rest[1..rest.len() - 1]
+            .iter()
+            .filter(|b| !b.is_ascii_whitespace())
+            .map(u8::to_ascii_lowercase)
+            .collect();
+        return Some(format!("<{}>", String::from_utf8_lossy(&inner)));
+    }
+    None
+}
+
+/// Whether assigning parameter `name` changes what the controller does with positions:
+/// its tool or work offset variables.
+fn is_offset_variable(name: &str) -> bool {
+    name.parse::<u64>()
+        .is_ok_and(|n| (2000..3000).contains(&n) || (5000..6000).contains(&n))
+}
+
+/// A literal number as written (`12.5`, `-3.`, `+.5`): its value and decimals.
+fn literal(text: &str) -> Option<(f64, u8)> {
+    let t = text.trim();
+    let digits = t.trim_start_matches(['+', '-']);
+    if digits.is_empty()
+        || !digits.bytes().all(|b| b.is_ascii_digit() || b == b'.')
+        || digits.bytes().filter(|&b| b == b'.').count() > 1
+        || t.len() - digits.len() > 1
+        || !digits.bytes().any(|b| b.is_ascii_digit())
+    {
+        return None;
+    }
+    let decimals = digits.find('.').map_or(0, |p| digits.len() - p - 1) as u8;
+    Some((t.parse().ok()?, decimals))
+}
+
+/// Follow the assignments of a line whose text starts with `#` (`content` without its
+/// comments is `#name = value`, one or more): their values, or an error (byte offset,
+/// message) for one that writes an offset variable. False when the line is not an
+/// assignment.
+pub fn assign(content: &[u8], params: &mut Params) -> Result<bool, (usize, String)> {
+    let text = String::from_utf8_lossy(content);
+    // Comments end the block's text: `(…)` and `;…`.
+    let end = text.find([';', '(']).unwrap_or(text.len());
+    let body = &text[..end];
+    let Some(eq) = body.find('=') else {
+        return Ok(false);
+    };
+    let target = body[..eq].trim();
+    let Some(name) = name_of(target.as_bytes()) else {
+        return Ok(false);
+    };
+    if is_offset_variable(&name) {
+        return Err((
+            body.find('#').unwrap_or(0),
+            format!(
+                "`{target}` is one of the controller's offset variables (#2000–#2999 tool offsets, #5000–#5999 work offsets): writing it moves program zero or the tool length, which cannot be compensated (expected G10 L2/L20 with a [work_offsets] table)"
+            ),
+        ));
+    }
+    params.set(name, literal(&body[eq + 1..]));
+    Ok(true)
+}
+
+/// Make the parameter an assignment line `content` sets unknown (the line is optional).
+pub fn forget(content: &[u8], params: &mut Params) {
+    let text = String::from_utf8_lossy(content);
+    if let Some(eq) = text.find('=')
+        && let Some(name) = name_of(text[..eq].trim().as_bytes())
+    {
+        params.set(name, None);
+    }
+}
+
+/// Replace every parameter word of `tokens` whose value `params` knows by that number.
+/// Words whose parameter is not known stay parameters (the reader decides whether the
+/// word may be one).
+pub fn substitute(content: &[u8], tokens: &mut [Token], params: &Params) {
+    for t in tokens.iter_mut() {
+        let TokenKind::Word(w) = &mut t.kind else {
+            continue;
+        };
+        if w.value != Value::Parameter {
+            continue;
+        }
+        let Some(text) = content.get(w.value_span.clone()) else {
+            continue;
+        };
+        if let Some(Some((value, decimals))) = name_of(text).and_then(|n| params.get(&n)) {
+            w.value = Value::Number { value, decimals };
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn constants_are_known_and_the_rest_is_not() {
+        let mut p = Params::default();
+        assert_eq!(assign(b"#100 = 12.5", &mut p), Ok(true));
+        assert_eq!(assign(b"#<Depth>=-3. (floor)", &mut p), Ok(true));
+        assert_eq!(assign(b"#101=[#100+1]", &mut p), Ok(true));
+        assert_eq!(assign(b"#102=#100", &mut p), Ok(true));
+        assert_eq!(p.get("100"), Some(Some((12.5, 1))));
+        assert_eq!(p.get("<depth>"), Some(Some((-3.0, 0))));
+        assert_eq!(p.get("101"), Some(None));
+        assert_eq!(p.get("102"), Some(None));
+        assert_eq!(p.get("103"), None);
+        assert!(assign(b"#5221=10.", &mut p).is_err());
+        assert!(assign(b"#2001=1.5", &mut p).is_err());
+        assert_eq!(assign(b"#3000=1 (ALARM)", &mut p), Ok(true));
+        // A reassignment replaces the value.
+        assert_eq!(assign(b"#100=7", &mut p), Ok(true));
+        assert_eq!(p.get("100"), Some(Some((7.0, 0))));
+    }
+}
