@@ -680,21 +680,15 @@ fn what_a_plane_cannot_do_is_refused_where_it_stands() {
             "one X, Y cannot serve the whole depth here",
         ),
     ] {
-        let err = compensate(&setup, &format!("{head}{rest}")).unwrap_err();
-        assert!(err.contains(at), "{err}");
-        assert!(err.contains(says), "{err}");
+        refused(&setup, &format!("{head}{rest}"), at, says);
     }
     // The rotary axes stand where a corrected word put them: the controller holds them
     // there, off the plane's programmed angles, unless G53.1 turns them.
-    let err = compensate(
+    refused(
         &setup,
         "G21 G90 G17\nG0 X0 Y0 Z150. A-20. C10.\nG68.2 X0 Y0 Z0 I0 J20. K0\nG1 X10. F100\n",
-    )
-    .unwrap_err();
-    assert!(err.contains("p.nc:4:4"), "{err}");
-    assert!(
-        err.contains("stands where an earlier block's corrected word put it"),
-        "{err}"
+        "p.nc:4:4",
+        "stands where an earlier block's corrected word put it",
     );
     // No solution within the travel for the machine file's sign.
     let mut setup = setup;
@@ -708,16 +702,19 @@ fn what_a_plane_cannot_do_is_refused_where_it_stands() {
         axis: a,
         positive: true,
     };
-    let err = compensate(
+    refused(
         &setup,
         "G21 G90\nG0 X0 Y0 Z150. A0 C0\nG68.2 I0 J45. K0\nG53.1\n",
-    )
-    .unwrap_err();
-    assert!(err.contains("p.nc:4:1"), "{err}");
-    assert!(
-        err.contains("cannot turn the tool perpendicular to this plane with axis A at 0 or above within the travel"),
-        "{err}"
+        "p.nc:4:1",
+        "cannot turn the tool perpendicular to this plane with axis A at 0 or above within the travel",
     );
+}
+
+/// `program` is refused at `at` (file:line:col) with a message containing `says`.
+fn refused(setup: &Setup, program: &str, at: &str, says: &str) {
+    let err = compensate(setup, program).unwrap_err();
+    assert!(err.contains(at), "{err}");
+    assert!(err.contains(says), "{err}");
 }
 
 #[test]

@@ -155,18 +155,14 @@ impl Mode for CycleMode {
                 "it starts where an axis is at a place nccomp does not know (after G28, G30, G53, M19 or a change of tool chain)",
             );
         }
-        for (v, word) in axis_words.iter().enumerate().take(n) {
-            if let Some(i) = *word
-                && ![vx, vy, vz].contains(&v)
-            {
-                return Err(cx.refuse(
-                    cx.col(i),
-                    format!(
-                        "{} words in a canned cycle cannot be compensated (cycles with rotary or other axis words are not supported; expected X, Y, Z and R)",
-                        pass.letter(v) as char
-                    ),
-                ));
-            }
+        if let Some((v, i)) = cx.word_outside(n, &[vx, vy, vz]) {
+            return Err(cx.refuse(
+                cx.col(i),
+                format!(
+                    "{} words in a canned cycle cannot be compensated (cycles with rotary or other axis words are not supported; expected X, Y, Z and R)",
+                    pass.letter(v) as char
+                ),
+            ));
         }
         if let Some(i) = cx.motion.arc_words[..3].iter().flatten().next() {
             return Err(cx.refuse(

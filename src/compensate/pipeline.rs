@@ -90,6 +90,17 @@ impl Cx<'_, '_> {
         }
     }
 
+    /// The block's first axis word of a variable (of the first `n`) not in `allowed`: the
+    /// variable and the word's token.
+    pub fn word_outside(&self, n: usize, allowed: &[usize]) -> Option<(usize, usize)> {
+        self.motion
+            .axis_words
+            .iter()
+            .enumerate()
+            .take(n)
+            .find_map(|(v, w)| w.filter(|_| !allowed.contains(&v)).map(|i| (v, i)))
+    }
+
     /// The editor of the block's line.
     pub fn editor<'e>(&'e self, edits: &'e mut Vec<Edit>) -> Editor<'e> {
         Editor::new(self.line.content, self.tokens, edits)

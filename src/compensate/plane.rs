@@ -91,18 +91,14 @@ impl Pass<'_> {
     ) -> Result<(), Diagnostic> {
         let pass = self;
         let n = pass.kin.len();
-        for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
-            if let Some(i) = *word
-                && !tips.contains(&v)
-            {
-                return Err(cx.refuse(
-                    cx.col(i),
-                    format!(
-                        "{} words under a tilted working plane (G68.2) cannot be compensated: how the controller moves the tip while a rotary axis turns under a plane is not determined (expected X, Y, Z; position the rotary axes with G53.1 or before G68.2)",
-                        pass.letter(v) as char
-                    ),
-                ));
-            }
+        if let Some((v, i)) = cx.word_outside(n, tips) {
+            return Err(cx.refuse(
+                cx.col(i),
+                format!(
+                    "{} words under a tilted working plane (G68.2) cannot be compensated: how the controller moves the tip while a rotary axis turns under a plane is not determined (expected X, Y, Z; position the rotary axes with G53.1 or before G68.2)",
+                    pass.letter(v) as char
+                ),
+            ));
         }
         let rotary = pass.rotary_mask();
         if let Some(v) =

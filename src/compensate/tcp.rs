@@ -177,20 +177,14 @@ impl Mode for TcpMode {
                 "arcs under G43.5 cannot be compensated: I, J, K are the tool vector there (program the arc as G1 moves, or under G43.4)".into(),
             ));
         }
-        if vector {
-            for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
-                if let Some(i) = *word
-                    && !tips.contains(&v)
-                {
-                    return Err(cx.refuse(
-                        cx.col(i),
-                        format!(
-                            "{} is a rotary word; under G43.5 the tool direction is programmed by I, J, K (expected X, Y, Z, I, J, K)",
-                            pass.letter(v) as char
-                        ),
-                    ));
-                }
-            }
+        if vector && let Some((v, i)) = cx.word_outside(n, &tips) {
+            return Err(cx.refuse(
+                cx.col(i),
+                format!(
+                    "{} is a rotary word; under G43.5 the tool direction is programmed by I, J, K (expected X, Y, Z, I, J, K)",
+                    pass.letter(v) as char
+                ),
+            ));
         }
         let to_mm = |x: f64| if state.modal.inch { x * INCH } else { x };
         // Where the move starts.
