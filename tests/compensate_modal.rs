@@ -897,3 +897,52 @@ fn smoothing_modes_pass_and_a_final_m99_ends_the_program() {
     let err = compensate("G0 X0 Y0 Z50\nM98 P1000\n").unwrap_err();
     assert!(err.contains("a subprogram call (M97/M98)"), "{err}");
 }
+
+#[test]
+fn a_program_that_never_states_its_units_is_read_in_the_machine_files_and_says_so() {
+    let mut m = machine();
+    let errors = random_errors(&m, &mut Lcg(7));
+    let program = "G0 X1. Y1. Z2. A0 C0\nG1 X1.5 F10.\n";
+    let (mm, summary) = run(&m, &errors, program).unwrap();
+    assert_eq!(summary.units_assumed, Some((1, "mm")));
+    assert!(
+        summary
+            .to_string()
+            .contains("before it says G20 or G21: its words were read in mm")
+    );
+    m.inch_default = true;
+    let (inch, summary) = run(&m, &errors, program).unwrap();
+    assert_eq!(summary.units_assumed, Some((1, "inch")));
+    // Read in inch, the same words are corrected as G20 would have them.
+    let (stated, summary) = run(&m, &errors, &format!("G20\n{program}")).unwrap();
+    assert_eq!(summary.units_assumed, None);
+    assert_eq!(format!("G20\n{inch}"), stated);
+    assert_ne!(mm, inch);
+    // The machine file's key.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let text = std::fs::read_to_string(root.join("head_head.machine.toml")).unwrap();
+    let with = |units: &str| {
+        text.replacen(
+            "\nworkpiece_chain",
+            &format!("\nunits = \"{units}\"\nworkpiece_chain"),
+            1,
+        )
+    };
+    assert!(
+        machine_file::parse(&with("inch"), "m.toml")
+            .unwrap()
+            .inch_default
+    );
+    assert!(
+        !machine_file::parse(&with("mm"), "m.toml")
+            .unwrap()
+            .inch_default
+    );
+    let err = machine_file::parse(&with("cm"), "m.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("`cm` in `units`: expected \"mm\" or \"inch\""),
+        "{err}"
+    );
+}

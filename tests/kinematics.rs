@@ -271,6 +271,7 @@ fn three_axis_rotary(rotary_first: bool) -> nccomp::model::Machine {
         lathe: None,
         codes: Default::default(),
         plane_solution: Default::default(),
+        inch_default: false,
         work_offsets: None,
     }
 }

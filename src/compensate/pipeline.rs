@@ -402,6 +402,10 @@ impl Pass<'_> {
         );
         let (ap, ad) = after.deviation(&sol.target);
         summary.motion_blocks += 1;
+        if !state.modal.units_stated && summary.units_assumed.is_none() {
+            let units = if state.modal.inch { "inch" } else { "mm" };
+            summary.units_assumed = Some((line, units));
+        }
         summary.record(
             line,
             sol.start_position_error,

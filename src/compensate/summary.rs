@@ -75,6 +75,9 @@ pub struct Summary {
     /// Axes that were compensated before the program first set them, assuming their home
     /// value 0, with the first line where that happened.
     pub assumed_home: Vec<(String, usize)>,
+    /// The first line compensated before the program said G20 or G21, and the units it
+    /// was read in (the machine file's `units`).
+    pub units_assumed: Option<(usize, &'static str)>,
     /// Axes held at their programmed value because the correction would have pushed them
     /// past a travel limit: (axis, blocks, first line).
     pub at_limit: Vec<(String, usize, usize)>,
@@ -276,6 +279,11 @@ impl Summary {
         for (axis, line) in &self.incremental_from_home {
             out.push(format!(
                 "note: axis {axis} was moved incrementally (G91) at line {line} before the program set it; its home value 0 was taken as the start"
+            ));
+        }
+        if let Some((line, units)) = self.units_assumed {
+            out.push(format!(
+                "note: the program moves at line {line} before it says G20 or G21: its words were read in {units}, the machine file's `units` (check the control reads it so)"
             ));
         }
         for (axis, line) in &self.assumed_home {

@@ -146,6 +146,7 @@ fn iso_machine() -> Machine {
         lathe: None,
         codes: Default::default(),
         plane_solution: Default::default(),
+        inch_default: false,
         work_offsets: None,
     }
 }

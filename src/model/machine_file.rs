@@ -67,6 +67,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
             "codes",
             "working_plane",
             "work_offsets",
+            "units",
         ],
         "the machine file",
     )?;
@@ -75,6 +76,19 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         .get("name")
         .map(|v| doc.string(v, "`name`").map(str::to_string))
         .transpose()?;
+    let inch_default = match root.get("units") {
+        Some(v) => match doc.string(v, "`units`")? {
+            "mm" => false,
+            "inch" => true,
+            other => {
+                return Err(doc.err(
+                    v.span(),
+                    format!("`{other}` in `units`: expected \"mm\" or \"inch\" (the units the control reads a program in until G20 or G21)"),
+                ));
+            }
+        },
+        None => false,
+    };
     let resolution = match root.get("resolution") {
         Some(v) => resolution(&doc, v)?,
         None => Resolution::default(),
@@ -279,6 +293,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         lathe,
         codes,
         plane_solution,
+        inch_default,
         work_offsets,
     })
 }

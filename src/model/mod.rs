@@ -193,6 +193,9 @@ pub struct Machine {
     pub codes: crate::program::MachineCodes,
     /// Which rotary solution the controller's G53.1 takes (machine file `[working_plane]`).
     pub plane_solution: PlaneSolution,
+    /// The units the controller reads a program in until it says G20 or G21 (machine file
+    /// `units`; a Haas control's Setting 9, a FANUC parameter): inch when set.
+    pub inch_default: bool,
     /// The controller's work offsets (machine file `[work_offsets]`); `None`: the machine
     /// file's geometry is in the program zero of the one work offset a program uses.
     pub work_offsets: Option<WorkOffsets>,

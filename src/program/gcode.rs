@@ -730,7 +730,10 @@ impl Reader<'_> {
                             arc_code = Some(i);
                         }
                         Code::Dwell => dwell = true,
-                        Code::Units { inch } => state.inch = inch,
+                        Code::Units { inch } => {
+                            state.inch = inch;
+                            state.units_stated = true;
+                        }
                         Code::ToolLength => {
                             g43 = true;
                             tcp_off = true;

@@ -149,6 +149,8 @@ impl WorkingPlane {
 pub struct Modal {
     /// G20: words are in inch.
     pub inch: bool,
+    /// The program has said G20 or G21 (until then `inch` is the machine file's `units`).
+    pub units_stated: bool,
     /// G7: X words are diameters (on a lathe).
     pub diameter: bool,
     /// G91: axis words are increments.
@@ -237,7 +239,8 @@ impl Modal {
 
     fn fresh(machine: &Machine, chain: usize) -> Modal {
         Modal {
-            inch: false,
+            inch: machine.inch_default,
+            units_stated: false,
             diameter: machine.lathe.is_some_and(|l| l.diameter),
             incremental: false,
             motion: None,

@@ -7,9 +7,8 @@
 //! line is read, [`substitute`] replaces each parameter word whose value is known by that
 //! number, so the rest of the pass reads it as a number; a word that is corrected is then
 //! written as a number (the editor replaces the value's bytes), one that is not keeps its
-//! bytes. Writing to the controller's offset variables (Fanuc #2000–#2999 tool offsets,
-//! #5000–#5999 work offsets and positions; LinuxCNC's #5xxx) would move program zero or the
-//! tool length: that is refused.
+//! bytes. Writing to the controller's offset variables (see `is_offset_variable`) would
+//! move program zero or the tool length: that is refused.
 
 use crate::nc::{Token, TokenKind, Value};
 
@@ -58,10 +57,17 @@ pub fn name_of(text: &[u8]) -> Option<String> {
 }
 
 /// Whether assigning parameter `name` changes what the controller does with positions:
-/// its tool or work offset variables.
+/// FANUC's tool offsets (#2000–#2999), work offsets (#5201–#5335) and extended work
+/// offsets (#7001–#7954, #14001–#19988); LinuxCNC's reference points, G92 and work
+/// offsets (#5161–#5390). Other system variables (LinuxCNC's #5599 debug switch, FANUC's
+/// #3000 alarm) move nothing.
 fn is_offset_variable(name: &str) -> bool {
-    name.parse::<u64>()
-        .is_ok_and(|n| (2000..3000).contains(&n) || (5000..6000).contains(&n))
+    name.parse::<u64>().is_ok_and(|n| {
+        (2000..=2999).contains(&n)
+            || (5161..=5390).contains(&n)
+            || (7001..=7954).contains(&n)
+            || (14001..=19988).contains(&n)
+    })
 }
 
 /// A literal number as written (`12.5`, `-3.`, `+.5`): its value and decimals.
@@ -100,7 +106,7 @@ pub fn assign(content: &[u8], params: &mut Params) -> Result<bool, (usize, Strin
         return Err((
             body.find('#').unwrap_or(0),
             format!(
-                "`{target}` is one of the controller's offset variables (#2000–#2999 tool offsets, #5000–#5999 work offsets): writing it moves program zero or the tool length, which cannot be compensated (expected G10 L2/L20 with a [work_offsets] table)"
+                "`{target}` is one of the controller's offset variables (FANUC #2000–#2999 tool offsets, #5201–#5335, #7001–#7954 and #14001–#19988 work offsets; LinuxCNC #5161–#5390 reference points and offsets): writing it moves program zero or the tool length, which cannot be compensated (expected G10 L2/L20 with a [work_offsets] table)"
             ),
         ));
     }
@@ -157,6 +163,9 @@ mod tests {
         assert!(assign(b"#5221=10.", &mut p).is_err());
         assert!(assign(b"#2001=1.5", &mut p).is_err());
         assert_eq!(assign(b"#3000=1 (ALARM)", &mut p), Ok(true));
+        assert_eq!(assign(b"#5599=1 (LinuxCNC debug output)", &mut p), Ok(true));
+        assert!(assign(b"#5161=0 (LinuxCNC G28 X)", &mut p).is_err());
+        assert!(assign(b"#7001=5. (G54.1 P1 X)", &mut p).is_err());
         // A reassignment replaces the value.
         assert_eq!(assign(b"#100=7", &mut p), Ok(true));
         assert_eq!(p.get("100"), Some(Some((7.0, 0))));

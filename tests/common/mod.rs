@@ -55,6 +55,7 @@ pub fn ac_trunnion(a_point: [f64; 3], c_point: [f64; 3]) -> Machine {
         lathe: None,
         codes: Default::default(),
         plane_solution: Default::default(),
+        inch_default: false,
         work_offsets: None,
     }
 }
@@ -81,6 +82,7 @@ pub fn head_head(pivot: f64) -> Machine {
         lathe: None,
         codes: Default::default(),
         plane_solution: Default::default(),
+        inch_default: false,
         work_offsets: None,
     }
 }
