@@ -128,6 +128,11 @@ pub fn forget(content: &[u8], params: &mut Params) {
 /// Words whose parameter is not known stay parameters (the reader decides whether the
 /// word may be one).
 pub fn substitute(content: &[u8], tokens: &mut [Token], params: &Params) {
+    // Most programs assign nothing, and most lines use no parameter: then every block
+    // pays one test.
+    if params.values.is_empty() || !content.contains(&b'#') {
+        return;
+    }
     for t in tokens.iter_mut() {
         let TokenKind::Word(w) = &mut t.kind else {
             continue;
