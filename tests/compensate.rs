@@ -313,3 +313,20 @@ fn held_axes_are_not_reported_as_singular() {
         summary.after_direction.value
     );
 }
+
+#[test]
+fn holding_every_axis_leaves_the_program_as_it_is() {
+    let m = machine();
+    let errors = random_errors(&m, &mut Lcg(5));
+    let options = Options {
+        hold: ["X", "Y", "Z", "A", "C"].map(String::from).to_vec(),
+        ..Options::default()
+    };
+    let comp = Compensator::new(&m, &errors, options).unwrap();
+    let program = "G21 G90\nG0 X1. Y1. Z50. A-10. C20.\nG1 X10. F100.\n";
+    let mut out = Vec::new();
+    let summary = comp.run(program.as_bytes(), "p.nc", &mut out).unwrap();
+    assert_eq!(String::from_utf8(out).unwrap(), program);
+    // Nothing could be corrected: the error is reported as it is.
+    assert!(summary.after_position.value > 1e-3, "{summary}");
+}

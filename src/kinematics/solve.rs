@@ -515,6 +515,10 @@ fn step_map(
 fn general_map(free: &[usize], row: &dyn Fn(usize, usize) -> f64) -> SMatrix<f64, MAX_AXES, 5> {
     let m = free.len();
     let mut out = SMatrix::<f64, MAX_AXES, 5>::zeros();
+    // Every variable held: there is no step to take (and no matrix to decompose).
+    if m == 0 {
+        return out;
+    }
     // Position as a hard constraint: Δ = Jp⁺·rp + N·z, N a basis of what the position rows
     // cannot see, z the least-squares fit of the direction rows within it:
     // Δ = [Jp⁺ − N·A⁺·Jd·Jp⁺ | N·A⁺]·r with A = Jd·N.
