@@ -180,20 +180,40 @@ fn compensate(program: &str) -> Result<String, String> {
 
 #[test]
 fn unchanged_bytes_stay_and_missing_axes_are_added() {
-    let out = compensate("n10 g1 x100.5 (keep) y 20\r\nN20 G0 Z50\r\n/N30 X10\r\n; end").unwrap();
+    let out = compensate(
+        "N5 G0 Z0 A0 C0\r\nn10 g1 x100.5 (keep) y 20\r\nN20 G0 Z50\r\n/N30 X10\r\n; end",
+    )
+    .unwrap();
     let lines: Vec<&str> = out.split("\r\n").collect();
-    assert_eq!(lines.len(), 4);
+    assert_eq!(lines.len(), 5);
     // Lowercase stays lowercase, the comment and the space after `y` stay.
-    assert!(lines[0].starts_with("n10 g1 x100.5"), "{}", lines[0]);
-    assert!(lines[0].contains(" (keep) y 20"), "{}", lines[0]);
+    assert!(lines[1].starts_with("n10 g1 x100.5"), "{}", lines[1]);
+    assert!(lines[1].contains(" (keep) y 20"), "{}", lines[1]);
     // Axes the block left out but that must move are added, in the block's style.
     assert!(
-        lines[0].contains(" z") && lines[0].contains(" a"),
+        lines[1].contains(" z") && lines[1].contains(" a"),
         "{}",
-        lines[0]
+        lines[1]
     );
-    assert!(lines[2].starts_with("/N30 X10."), "{}", lines[2]);
-    assert_eq!(lines[3], "; end");
+    assert!(lines[3].starts_with("/N30 X10."), "{}", lines[3]);
+    assert_eq!(lines[4], "; end");
+}
+
+#[test]
+fn no_word_is_added_for_an_axis_the_program_has_not_set() {
+    // Z, A and C stand where the operator left them: a Z word here would move the tool
+    // to a height the program never asked for.
+    let out = compensate("G21 G90\nG1 X100.5 Y20. F500.\nX50.\n").unwrap();
+    for line in out.lines() {
+        assert!(
+            !line.contains('Z') && !line.contains('A') && !line.contains('C'),
+            "{out}"
+        );
+    }
+    // Once set, an axis takes its share of the correction.
+    let out = compensate("G21 G90\nG0 Z50. A-30. C10.\nG1 X100.5 Y20. F500.\n").unwrap();
+    let last = out.lines().nth(2).unwrap();
+    assert!(last.contains('Z') && last.contains('A'), "{out}");
 }
 
 #[test]

@@ -122,7 +122,18 @@ fn run<M: Mode>(mode: &mut M, b: &mut Block) -> Result<(), Diagnostic> {
         return Ok(());
     }
     let pass = b.pass;
-    let hold = pass.hold | mode.hold(pass);
+    // An axis the program has not set yet stands where the operator left it: no word is
+    // added for it (that would move it), so it keeps its value and the others correct.
+    let unset = (0..pass.kin.len())
+        .filter(|&v| b.cx.motion.axis_words[v].is_none())
+        .fold(0u32, |m, v| m | 1 << v)
+        & !b.state.pos.programmed;
+    for v in (0..pass.kin.len()).filter(|&v| unset & !(pass.idle | pass.spindle) & (1 << v) != 0) {
+        b.out
+            .summary
+            .note_assumed_home(pass.axis_name(v), b.cx.line.number);
+    }
+    let hold = pass.hold | mode.hold(pass) | unset;
     // Used where it lies: moved out of the `Result`, the 440-byte solution is copied.
     let solved = pass.solve(&target, hold, b.cx, b.state);
     let (end, at_limit) = match &solved {

@@ -288,7 +288,7 @@ impl Summary {
         }
         for (axis, line) in &self.assumed_home {
             out.push(format!(
-                "note: axis {axis} was corrected at line {line} before the program set it; its home value 0 was assumed"
+                "note: axis {axis} had not been set by the program at line {line}: its home value 0 was assumed for the error model (in machine-axis blocks it keeps where it stands, with no word added)"
             ));
         }
         out
