@@ -946,3 +946,104 @@ fn a_program_that_never_states_its_units_is_read_in_the_machine_files_and_says_s
         "{err}"
     );
 }
+
+/// The C words of a program's lines, in order.
+fn c_words(program: &str) -> Vec<f64> {
+    program
+        .lines()
+        .filter_map(|l| l.split_whitespace().find_map(|w| w.strip_prefix('C')))
+        .map(|c| c.parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn a_rollover_axis_is_split_the_shortest_way_to_its_word() {
+    let mut m = machine();
+    m.tool.lengths.insert(1, 100.0);
+    let errors = random_errors(&m, &mut Lcg(7));
+    // With the path check, as the command line runs by default.
+    let run = |m: &Machine, errors: &ErrorModel, program: &str| {
+        let options = Options {
+            path: Some(nccomp::kinematics::path::PathTolerance::default()),
+            ..Options::default()
+        };
+        let comp = Compensator::new(m, errors, options).unwrap();
+        let mut out = Vec::new();
+        comp.run(program.as_bytes(), "p.nc", &mut out)
+            .map(|s| (String::from_utf8(out).unwrap(), s))
+            .map_err(|e| e.to_string())
+    };
+    // From C170 to C-170: 20° through 180 on a rollover table, 340° back through 0 on one
+    // that is not.
+    let program = "G21 G90\nG0 X250. Y150. Z30. A-60. C170.\nG1 C-170. F500.\nM30\n";
+    let (plain, summary) = run(&m, &errors, program).unwrap();
+    assert!(summary.moves_split > 0, "{plain}");
+    let through_zero = c_words(&plain).iter().any(|c| c.abs() < 90.0);
+    assert!(through_zero, "{plain}");
+    m.axes[4].rollover = true;
+    let (rolled, summary) = run(&m, &errors, program).unwrap();
+    assert!(summary.moves_split > 0, "{rolled}");
+    let words = c_words(&rolled);
+    // Every piece lies on the 20° between 170 and 190 (= -170): the control, taking each
+    // word modulo 360 the shortest way, turns through 180.
+    for c in &words[1..words.len() - 1] {
+        let from_180 = (c - 180.0) - 360.0 * ((c - 180.0) / 360.0).round();
+        assert!(from_180.abs() <= 10.0 + 1e-3, "{c}\n{rolled}");
+    }
+    assert!((words[words.len() - 1] + 170.0).abs() < 0.1, "{rolled}");
+    // Exactly half a turn: the way is the control's choice.
+    let err = run(
+        &m,
+        &errors,
+        "G21 G90\nG0 X20. Y10. Z30. A-30. C0\nG1 C180. F500.\n",
+    )
+    .unwrap_err();
+    assert!(err.contains("p.nc:3:4"), "{err}");
+    assert!(err.contains("by exactly half a turn"), "{err}");
+    // Under TCP the path nccomp follows turns in proportion: a half turn or more is refused.
+    let err = run(
+        &m,
+        &errors,
+        "G21 G90\nG0 X20. Y10. Z30. A-30. C170.\nG43.4 H1\nG1 X20. Y10. Z30. A-30. C-170. F500.\n",
+    )
+    .unwrap_err();
+    assert!(err.contains("p.nc:4:"), "{err}");
+    assert!(
+        err.contains("rollover axis C turns half a turn or more"),
+        "{err}"
+    );
+}
+
+#[test]
+fn rollover_is_for_rotary_axes_without_travel() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let text = std::fs::read_to_string(root.join("ac_trunnion.machine.toml")).unwrap();
+    let with = |axis: &str, value: &str| {
+        text.replacen(
+            &format!("[axes.{axis}]\n"),
+            &format!("[axes.{axis}]\nrollover = {value}\n"),
+            1,
+        )
+    };
+    let m = machine_file::parse(&with("C", "true"), "m.toml").unwrap();
+    assert!(m.axes.iter().find(|a| a.name == "C").unwrap().rollover);
+    for (axis, value, says) in [
+        (
+            "A",
+            "true",
+            "`rollover` is for rotary axes without a `travel`",
+        ),
+        (
+            "X",
+            "true",
+            "`rollover` is for rotary axes without a `travel`",
+        ),
+        ("C", "\"yes\"", "`rollover`: expected true"),
+    ] {
+        let err = machine_file::parse(&with(axis, value), "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(says), "{err}");
+        assert!(err.contains("m.toml:"), "{err}");
+    }
+}

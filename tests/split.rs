@@ -271,3 +271,72 @@ fn a_move_through_the_singular_pose_names_the_held_axis() {
         "{summary}"
     );
 }
+
+/// A four-axis machine (the AC trunnion without its C table) cannot correct the tool's
+/// direction: halving a move cannot bring it nearer than its ends, so the direction does
+/// not split it, while the tip's path still does.
+#[test]
+fn a_direction_no_split_can_improve_does_not_split_the_move() {
+    let mut machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    machine.axes.remove(4);
+    machine.workpiece_chain = vec![1, 0, 3];
+    let errors = random_errors(&machine, &mut Lcg(17));
+    let tol = PathTolerance::default();
+    let comp = Compensator::new(
+        &machine,
+        &errors,
+        Options {
+            path: Some(tol),
+            ..Options::default()
+        },
+    )
+    .unwrap();
+    let program = "N10 G0 X-50. Y-40. Z40. A-10.\nN20 G1 X60. Y30. Z20. A-70. F800.\n";
+    let mut out = Vec::new();
+    let summary = comp.run(program.as_bytes(), "p.nc", &mut out).unwrap();
+    let written = String::from_utf8(out).unwrap();
+    // The ends leave tens of µrad: more than the tolerance, at every point of the move.
+    assert!(summary.after_direction.value > 3.0 * tol.direction, "{summary}");
+    let pieces = summary.blocks_added;
+    assert!(pieces < 100, "{pieces} blocks added\n{summary}");
+    // The tip stays on the nominal path.
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let mut q = [0.0; 4];
+    let mut ends = Vec::new();
+    for line in written.lines() {
+        for word in line.split_whitespace() {
+            if let Some(k) = "XYZA".find(&word[..1]) {
+                q[k] = word[1..].parse().unwrap();
+            }
+        }
+        ends.push(q);
+    }
+    let (a, b) = ([-50.0, -40.0, 40.0, -10.0], [60.0, 30.0, 20.0, -70.0]);
+    let mut worst = 0.0f64;
+    for w in ends[1..].windows(2) {
+        for i in 0..=16 {
+            let u = i as f64 / 16.0;
+            let c: Vec<f64> = (0..4).map(|k| w[0][k] + (w[1][k] - w[0][k]) * u).collect();
+            let real = kin.pose(Model::Actual, &c, 0.0).0.p;
+            // The nearest point of the nominal path: the best of a coarse search, refined.
+            let off = |s: f64| {
+                let n: Vec<f64> = (0..4).map(|k| a[k] + (b[k] - a[k]) * s).collect();
+                (kin.pose(Model::Nominal, &n, 0.0).0.p - real).norm()
+            };
+            let j = (0..=200)
+                .min_by(|&i, &j| off(i as f64 / 200.0).total_cmp(&off(j as f64 / 200.0)))
+                .unwrap();
+            let (mut lo, mut hi) = (((j as f64) - 1.0) / 200.0, ((j as f64) + 1.0) / 200.0);
+            for _ in 0..80 {
+                let (m1, m2) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
+                if off(m1) < off(m2) {
+                    hi = m2;
+                } else {
+                    lo = m1;
+                }
+            }
+            worst = worst.max(off(lo.clamp(0.0, 1.0)));
+        }
+    }
+    assert!(worst < 1.5 * tol.position, "{worst}\n{written}");
+}

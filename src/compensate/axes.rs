@@ -76,6 +76,10 @@ impl Mode for AxesMode {
         Ok(false)
     }
 
+    fn rollover_aware(&self) -> bool {
+        true
+    }
+
     fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic> {
         let (pass, cx, state, out) = b.parts();
         // Split the move where its path strays (G1 from a known start).
@@ -85,8 +89,20 @@ impl Mode for AxesMode {
             && !cx.motion.optional
             && (0..n).all(|v| (self.start_known | pass.idle) & (1 << v) != 0)
         {
-            let previous = state.previous;
-            pass.split_move(cx, &previous, &end.q, hold, state, out);
+            // A rollover axis turns the shortest way to its word.
+            let ways = pass
+                .shortest_from(&state.previous, &state.pos.nominal)
+                .and_then(|previous| Ok((previous, pass.shortest_from(&state.emitted, &end.q)?)));
+            let (previous, from) = ways.map_err(|v| {
+                cx.refuse(
+                    cx.motion.axis_words[v].map_or(0, |i| cx.col(i)),
+                    format!(
+                        "this move turns rollover axis {} by exactly half a turn: which way the control turns it is its own setting (program the move in two)",
+                        pass.axis_name(v)
+                    ),
+                )
+            })?;
+            pass.split_move(cx, (&previous, &from), &end.q, hold, state, out);
         }
         Ok(())
     }

@@ -129,6 +129,8 @@ struct Pass<'m> {
     /// Program zero from the machine file's geometry zero, by variable (mm; 0 for rotary
     /// axes): the kinematics and travels are shifted by it.
     shift: [f64; MAX_AXES],
+    /// Bit k: variable k is a rollover axis (FANUC ROA).
+    rollover: u32,
 }
 
 /// The pass's state between blocks: the program's modal state (as the reader follows it)
@@ -424,7 +426,11 @@ impl<'m> Pass<'m> {
             idle: 0,
             write_order: Vec::new(),
             shift: [0.0; MAX_AXES],
+            rollover: 0,
         };
+        pass.rollover = (0..kin.len())
+            .filter(|&v| machine.axes[kin.axes()[v]].rollover)
+            .fold(0, |m, v| m | 1 << v);
         let mut order: Vec<usize> = (0..kin.len()).collect();
         order.sort_by_key(|&v| axis_order(pass.letter(v)));
         pass.write_order = order;
@@ -492,6 +498,29 @@ impl<'m> Pass<'m> {
         } else {
             decimals_for(self.machine.resolution.linear / unit.to_mm(1.0))
         }
+    }
+
+    /// `from` with each rollover axis moved by whole turns to within half a turn of `to`:
+    /// where the control starts a move to `to` from, turning the shortest way. `Err` with
+    /// the variable of a move of exactly half a turn, whose way is the control's choice.
+    fn shortest_from(
+        &self,
+        from: &[f64; MAX_AXES],
+        to: &[f64; MAX_AXES],
+    ) -> Result<[f64; MAX_AXES], usize> {
+        let mut out = *from;
+        if self.rollover == 0 {
+            return Ok(out);
+        }
+        for v in (0..self.kin.len()).filter(|&v| self.rollover & (1 << v) != 0) {
+            let d = to[v] - from[v];
+            let wrapped = d - 360.0 * (d / 360.0).round();
+            if (wrapped.abs() - 180.0).abs() < 1e-9 {
+                return Err(v);
+            }
+            out[v] = to[v] - wrapped;
+        }
+        Ok(out)
     }
 
     fn travel(&self, var: usize) -> Option<[f64; 2]> {

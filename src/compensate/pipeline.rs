@@ -122,6 +122,19 @@ fn run<M: Mode>(mode: &mut M, b: &mut Block) -> Result<(), Diagnostic> {
         return Ok(());
     }
     let pass = b.pass;
+    if pass.rollover != 0 && !mode.rollover_aware() {
+        for v in (0..pass.kin.len()).filter(|&v| pass.rollover & (1 << v) != 0) {
+            if (target[v] - b.state.emitted[v]).abs() >= 180.0 - 1e-9 {
+                return Err(b.cx.refuse(
+                    b.cx.motion.axis_words[v].map_or(0, |i| b.cx.col(i)),
+                    format!(
+                        "rollover axis {} turns half a turn or more in this block, and the control turns it the shortest way: the path nccomp follows here (tool-centre-point, arcs) would take the other (program the turn in smaller steps)",
+                        pass.axis_name(v)
+                    ),
+                ));
+            }
+        }
+    }
     // An axis the program has not set yet stands where the operator left it: no word is
     // added for it (that would move it), so it keeps its value and the others correct.
     let unset = (0..pass.kin.len())
@@ -178,6 +191,12 @@ pub(super) trait Mode {
     /// Variables the solve holds in this mode, beyond the pass's own.
     fn hold(&self, _pass: &Pass<'_>) -> u32 {
         0
+    }
+
+    /// Whether the mode's path follows a rollover axis the shortest way to its word (else
+    /// a move of half a turn or more on one is refused).
+    fn rollover_aware(&self) -> bool {
+        false
     }
 
     /// Keep the path within the tolerance: blocks inserted before the line. `hold`: the

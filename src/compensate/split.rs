@@ -21,12 +21,12 @@ use std::fmt::Write;
 impl Pass<'_> {
     /// Split the current G1 move if its path needs it: push an edit inserting the new
     /// blocks before the line (and, in G93, one giving the block its share of F), and
-    /// advance `state` to the last inserted point. `previous`: the nominal values before
-    /// the block; `end`: its compensated values.
+    /// advance `state` to the last inserted point. `previous`, `from`: the nominal values
+    /// before the block and the ones the machine was told; `end`: its compensated values.
     pub(super) fn split_move(
         &self,
         cx: &Cx<'_, '_>,
-        previous: &[f64; MAX_AXES],
+        (previous, from): (&[f64; MAX_AXES], &[f64; MAX_AXES]),
         end: &[f64; MAX_AXES],
         hold: u32,
         state: &mut State,
@@ -40,7 +40,7 @@ impl Pass<'_> {
         let mut pieces = std::mem::take(&mut state.pieces);
         self.kin.subdivide_into(
             (&previous[..n], &state.pos.nominal[..n]),
-            (&state.emitted[..n], &end[..n]),
+            (&from[..n], &end[..n]),
             state.modal.length,
             hold,
             tolerance,

@@ -129,6 +129,7 @@ fn iso_machine() -> Machine {
                 point: Vector3::zeros(),
                 travel: None,
                 table_offset: 0.0,
+                rollover: false,
             }
         })
         .collect();

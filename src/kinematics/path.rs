@@ -177,7 +177,21 @@ impl Kinematics {
             &[0.25, 0.5, 0.75],
             options,
         );
-        let fine = dev.position <= tol.position && dev.direction <= tol.direction;
+        let mut fine = dev.position <= tol.position && dev.direction <= tol.direction;
+        if !fine && dev.position <= tol.position {
+            // The direction the solved ends leave (a machine with fewer than five axes, a
+            // held rotary axis) is the floor: halving cannot take the path below it.
+            let floor = self
+                .deviation(
+                    (&n0[..n], &n1[..n]),
+                    (&c0[..n], &c1[..n]),
+                    length,
+                    &[0.0, 1.0],
+                    options,
+                )
+                .direction;
+            fine = dev.direction <= floor + tol.direction;
+        }
         if fine {
             out.push(Piece {
                 s: s1,

@@ -749,6 +749,7 @@ fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -
             "reference_point",
             "point",
             "table_offset",
+            "rollover",
         ],
         &what,
     )?;
@@ -925,6 +926,31 @@ fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -
         None => 0.0,
     };
 
+    let rollover = match t.get_key_value("rollover") {
+        None => false,
+        Some((k, r)) => {
+            let on = r.get_ref().as_bool().ok_or_else(|| {
+                doc.err(
+                    r.span(),
+                    format!(
+                        "`rollover`: expected true (the control takes an absolute word modulo 360° and turns the shortest way) or false, found {}",
+                        describe(r.get_ref())
+                    ),
+                )
+            })?;
+            if on && (kind != AxisKind::Rotary || travel.is_some()) {
+                return Err(doc.err(
+                    k.span(),
+                    format!(
+                        "`rollover` is for rotary axes without a `travel` (they turn without end), and {name} {}",
+                        if kind == AxisKind::Rotary { "has a travel" } else { "is linear" }
+                    ),
+                ));
+            }
+            on
+        }
+    };
+
     Ok(Axis {
         name,
         word,
@@ -933,6 +959,7 @@ fn axis(doc: &Doc, key: &Spanned<std::borrow::Cow<str>>, v: &Spanned<DeValue>) -
         point,
         travel,
         table_offset,
+        rollover,
     })
 }
 

@@ -131,6 +131,9 @@ pub struct Axis {
     pub travel: Option<[f64; 2]>,
     /// Added to the program position before error-table look-up.
     pub table_offset: f64,
+    /// A rotary axis the control rolls over (FANUC's rotary axis roll-over, parameter
+    /// 1008#0 ROA): an absolute word is an angle modulo 360°, reached the shortest way.
+    pub rollover: bool,
 }
 
 /// A named chain of axes from the bed outward (indices into [`Machine::axes`]).

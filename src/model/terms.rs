@@ -398,6 +398,7 @@ mod tests {
             point: Vector3::zeros(),
             travel: None,
             table_offset: 0.0,
+            rollover: false,
         }
     }
 

@@ -17,6 +17,7 @@ pub fn linear(name: &str, direction: [f64; 3]) -> Axis {
         point: Vector3::zeros(),
         travel: None,
         table_offset: 0.0,
+        rollover: false,
     }
 }
 
@@ -29,6 +30,7 @@ pub fn rotary(name: &str, direction: [f64; 3], point: [f64; 3]) -> Axis {
         point: Vector3::from(point),
         travel: None,
         table_offset: 0.0,
+        rollover: false,
     }
 }
 
