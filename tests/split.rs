@@ -296,7 +296,10 @@ fn a_direction_no_split_can_improve_does_not_split_the_move() {
     let summary = comp.run(program.as_bytes(), "p.nc", &mut out).unwrap();
     let written = String::from_utf8(out).unwrap();
     // The ends leave tens of µrad: more than the tolerance, at every point of the move.
-    assert!(summary.after_direction.value > 3.0 * tol.direction, "{summary}");
+    assert!(
+        summary.after_direction.value > 3.0 * tol.direction,
+        "{summary}"
+    );
     let pieces = summary.blocks_added;
     assert!(pieces < 100, "{pieces} blocks added\n{summary}");
     // The tip stays on the nominal path.

@@ -100,6 +100,44 @@ impl Solution {
     }
 }
 
+impl Kinematics {
+    /// The tip to `target` with the three variables `free` (linear axes that span space)
+    /// moved from `start` and the others kept: Newton's method on the 3×3 position
+    /// Jacobian, without allocating. `None` when the three cannot place the tip (their
+    /// directions nearly in a plane) or do not converge to `tolerance` (mm).
+    pub fn place_tip(
+        &self,
+        model: Model,
+        target: &Vector3<f64>,
+        start: &[f64],
+        length: f64,
+        free: [usize; 3],
+        tolerance: f64,
+    ) -> Option<[f64; MAX_AXES]> {
+        let n = self.len();
+        let mut q = [0.0; MAX_AXES];
+        q[..n].copy_from_slice(&start[..n]);
+        for _ in 0..4 {
+            let (pose, jac) = self.pose_and_jacobian(model, &q[..n], length);
+            let r = target - pose.p;
+            if r.norm() <= tolerance {
+                return Some(q);
+            }
+            let j = nalgebra::Matrix3::from_columns(&[
+                jac.dp[free[0]],
+                jac.dp[free[1]],
+                jac.dp[free[2]],
+            ]);
+            let step = j.lu().solve(&r)?;
+            for (k, &v) in free.iter().enumerate() {
+                q[v] += step[k];
+            }
+        }
+        let (pose, _) = self.pose(model, &q[..n], length);
+        ((target - pose.p).norm() <= tolerance).then_some(q)
+    }
+}
+
 /// Two unit vectors perpendicular to `o` and to each other.
 fn tangent_basis(o: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     let helper = if o.x.abs() < 0.6 {
