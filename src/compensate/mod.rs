@@ -131,6 +131,9 @@ struct Pass<'m> {
     shift: [f64; MAX_AXES],
     /// Bit k: variable k is a rollover axis (FANUC ROA).
     rollover: u32,
+    /// The solve's options for machine-axis words: the linear axes take up the rounding
+    /// of the rotary words (under TCP or a plane the controller places the tip itself).
+    axes_solve: crate::kinematics::SolveOptions,
 }
 
 /// The pass's state between blocks: the program's modal state (as the reader follows it)
@@ -427,6 +430,13 @@ impl<'m> Pass<'m> {
             write_order: Vec::new(),
             shift: [0.0; MAX_AXES],
             rollover: 0,
+            axes_solve: crate::kinematics::SolveOptions {
+                rotary_rounding: Some((
+                    decimals_for(machine.resolution.rotary),
+                    machine.resolution.linear / 4.0,
+                )),
+                ..options.solve
+            },
         };
         pass.rollover = (0..kin.len())
             .filter(|&v| machine.axes[kin.axes()[v]].rollover)
@@ -521,6 +531,15 @@ impl<'m> Pass<'m> {
             out[v] = to[v] - wrapped;
         }
         Ok(out)
+    }
+
+    /// The solve's options for a block in `state`'s modes.
+    fn solve_options(&self, state: &State) -> &crate::kinematics::SolveOptions {
+        if state.modal.tcp || state.modal.working_plane.is_some() {
+            &self.options.solve
+        } else {
+            &self.axes_solve
+        }
     }
 
     fn travel(&self, var: usize) -> Option<[f64; 2]> {

@@ -283,8 +283,12 @@ impl Pass<'_> {
                 .presolved
                 .take(line, state.pass, &q[..n], state.modal.length, hold)
                 .unwrap_or_else(|| {
-                    self.kin
-                        .compensate(&q[..n], state.modal.length, hold, &self.options.solve)
+                    self.kin.compensate(
+                        &q[..n],
+                        state.modal.length,
+                        hold,
+                        self.solve_options(state),
+                    )
                 })
         };
         // Solved in place, not moved out of a loop: a solution is 440 bytes.
@@ -344,61 +348,7 @@ impl Pass<'_> {
                 ));
             }
         }
-        self.absorb_rounding(cx, state, hold, &mut sol);
         Ok((sol, at_limit))
-    }
-
-    /// A rotary word is written to its decimals, which moves the tip by the rounding times
-    /// the distance from the axis (0.001° at 100 mm is 1.7 µm): where that is more than a
-    /// quarter of the linear resolution, the linear axes are solved again with the rotary
-    /// axes at their written values. Machine-axis words only: under TCP or a plane the
-    /// controller places the tip itself.
-    fn absorb_rounding(&self, cx: &Cx<'_, '_>, state: &State, hold: u32, sol: &mut Solution) {
-        if state.modal.tcp || state.modal.working_plane.is_some() {
-            return;
-        }
-        let n = self.kin.len();
-        let fixed = hold | sol.held | sol.singular;
-        let mut rounded = sol.q;
-        let mut moved = false;
-        for v in (0..n).filter(|&v| !self.is_linear(v) && fixed & (1 << v) == 0) {
-            let d = cx.motion.axis_words[v]
-                .map_or(state.decimals[v], |i| cx.number(i).1)
-                .max(self.decimals.1);
-            // As written (without the text: the pass allocates nothing per block).
-            rounded[v] = scaled(sol.q[v], d).map_or(sol.q[v], |k| k as f64 / 10f64.powi(d.into()));
-            moved |= rounded[v] != sol.q[v];
-        }
-        if !moved {
-            return;
-        }
-        let length = state.modal.length;
-        let (at, _) = self.kin.pose(Model::Actual, &rounded[..n], length);
-        let off = (at.p - sol.target.p).norm();
-        if off <= self.machine.resolution.linear / 4.0 {
-            return;
-        }
-        // The tip's X, Y and Z axes take it up (a machine with other linear axes, or one of
-        // them held, keeps the rounding).
-        let Some(free) = self
-            .tip_vars()
-            .filter(|t| t.iter().all(|&v| fixed & (1 << v) == 0))
-        else {
-            return;
-        };
-        if let Some(q) = self.kin.place_tip(
-            Model::Actual,
-            &sol.target.p,
-            &rounded[..n],
-            length,
-            free,
-            1e-7,
-        ) {
-            let (pose, _) = self.kin.pose(Model::Actual, &q[..n], length);
-            sol.q = q;
-            sol.position_residual = (pose.p - sol.target.p).norm();
-            sol.direction_residual = crate::kinematics::angle_between(&pose.o, &sol.target.o);
-        }
     }
 
     /// Travel limits on what the controller is now told, and the record of the block.

@@ -211,9 +211,7 @@ impl Predictor {
             }
             let q = &self.nominal[..n];
             let length = self.modal.length;
-            let solution = pass
-                .kin
-                .compensate(q, length, pass.hold, &pass.options.solve);
+            let solution = pass.kin.compensate(q, length, pass.hold, &pass.axes_solve);
             out.push(Ahead {
                 line: before + line.number,
                 key: Key::new(index, q, length, pass.hold),

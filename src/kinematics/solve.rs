@@ -23,6 +23,9 @@ pub struct SolveOptions {
     pub position_tolerance: f64,
     /// ... and the direction this close (rad), or when steps no longer change anything.
     pub angle_tolerance: f64,
+    /// [`Kinematics::compensate`] only: the decimals rotary values are written with, and
+    /// how far (mm) their rounding may move the tip before the linear axes take it up.
+    pub rotary_rounding: Option<(u8, f64)>,
 }
 
 impl Default for SolveOptions {
@@ -32,6 +35,7 @@ impl Default for SolveOptions {
             max_iterations: 25,
             position_tolerance: 1e-10,
             angle_tolerance: 1e-12,
+            rotary_rounding: None,
         }
     }
 }
@@ -100,44 +104,6 @@ impl Solution {
     }
 }
 
-impl Kinematics {
-    /// The tip to `target` with the three variables `free` (linear axes that span space)
-    /// moved from `start` and the others kept: Newton's method on the 3×3 position
-    /// Jacobian, without allocating. `None` when the three cannot place the tip (their
-    /// directions nearly in a plane) or do not converge to `tolerance` (mm).
-    pub fn place_tip(
-        &self,
-        model: Model,
-        target: &Vector3<f64>,
-        start: &[f64],
-        length: f64,
-        free: [usize; 3],
-        tolerance: f64,
-    ) -> Option<[f64; MAX_AXES]> {
-        let n = self.len();
-        let mut q = [0.0; MAX_AXES];
-        q[..n].copy_from_slice(&start[..n]);
-        for _ in 0..4 {
-            let (pose, jac) = self.pose_and_jacobian(model, &q[..n], length);
-            let r = target - pose.p;
-            if r.norm() <= tolerance {
-                return Some(q);
-            }
-            let j = nalgebra::Matrix3::from_columns(&[
-                jac.dp[free[0]],
-                jac.dp[free[1]],
-                jac.dp[free[2]],
-            ]);
-            let step = j.lu().solve(&r)?;
-            for (k, &v) in free.iter().enumerate() {
-                q[v] += step[k];
-            }
-        }
-        let (pose, _) = self.pose(model, &q[..n], length);
-        ((target - pose.p).norm() <= tolerance).then_some(q)
-    }
-}
-
 /// Two unit vectors perpendicular to `o` and to each other.
 fn tangent_basis(o: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     let helper = if o.x.abs() < 0.6 {
@@ -194,7 +160,64 @@ impl Kinematics {
             &angles,
         );
         sol.singular = singular;
+        if let Some((decimals, tolerance)) = options.rotary_rounding {
+            self.absorb_rounding(&mut sol, &nominal, hold | singular, decimals, tolerance);
+        }
         sol
+    }
+
+    /// A rotary value is written with `decimals`, which moves the tip by the rounding times
+    /// the distance from the axis (0.001° at 100 mm is 1.7 µm): where that is more than
+    /// `tolerance`, the rotary values become the rounded ones and the three linear
+    /// variables (when there are exactly three free) take the tip back. The step comes
+    /// from the nominal Jacobian the solve started with: the errors and the correction
+    /// change it by a thousandth, and the rounding is a fraction of a micron, so it is right
+    /// to picometres, without a pose.
+    fn absorb_rounding(
+        &self,
+        sol: &mut Solution,
+        nominal: &Jacobian,
+        fixed: u32,
+        decimals: u8,
+        tolerance: f64,
+    ) {
+        let n = self.len();
+        let scale = 10f64.powi(decimals.into());
+        let mut rounded = sol.q;
+        let mut linear = [0usize; 3];
+        let mut m = 0;
+        for v in (0..n).filter(|&v| fixed & (1 << v) == 0) {
+            if self.rotary & (1 << v) != 0 {
+                rounded[v] = (sol.q[v] * scale).round() / scale;
+            } else if m < 3 {
+                linear[m] = v;
+                m += 1;
+            } else {
+                return;
+            }
+        }
+        if m != 3 {
+            return;
+        }
+        let shift = (0..n)
+            .filter(|&v| self.rotary & (1 << v) != 0)
+            .fold(Vector3::zeros(), |p, v| {
+                p + nominal.dp[v] * (rounded[v] - sol.q[v])
+            });
+        if shift.norm() <= tolerance {
+            return;
+        }
+        let j = nalgebra::Matrix3::from_columns(&[
+            nominal.dp[linear[0]],
+            nominal.dp[linear[1]],
+            nominal.dp[linear[2]],
+        ]);
+        if let Some(step) = j.lu().solve(&-shift) {
+            for (k, &v) in linear.iter().enumerate() {
+                rounded[v] += step[k];
+            }
+            sol.q = rounded;
+        }
     }
 
     /// Rotary variables whose axis line lies within `limit` (rad) of the tool direction.
