@@ -172,3 +172,206 @@ fn cycles_that_cannot_be_compensated_honestly_are_refused() {
     )
     .unwrap();
 }
+
+/// The holes a program drills, read as a FANUC-family control reads them: X, Y absolute
+/// (G90) or increments (G91), an L word repeating the hole at each increment; in G91 R is
+/// the distance from the initial level (the tool's Z where the cycle began), Z from the R
+/// plane. A and C stay 0. Each hole: (x, y, bottom, r).
+fn holes_of(program: &str) -> Vec<[f64; 4]> {
+    let (mut x, mut y, mut tool_z) = (0.0, 0.0, 0.0);
+    let (mut bottom, mut r, mut initial) = (f64::NAN, f64::NAN, f64::NAN);
+    let (mut incremental, mut cycle) = (false, false);
+    let mut holes = Vec::new();
+    for line in program.lines() {
+        let (mut dx, mut dy, mut dz, mut dr, mut repeats) = (None, None, None, None, 1);
+        for word in line.split_whitespace() {
+            let value = |w: &str| w[1..].parse::<f64>().unwrap();
+            match &word[..1] {
+                "G" => match word {
+                    "G90" => incremental = false,
+                    "G91" => incremental = true,
+                    "G80" => cycle = false,
+                    "G81" | "G82" | "G83" if !cycle => {
+                        cycle = true;
+                        initial = tool_z;
+                    }
+                    _ => {}
+                },
+                "X" => dx = Some(value(word)),
+                "Y" => dy = Some(value(word)),
+                "Z" => dz = Some(value(word)),
+                "R" => dr = Some(value(word)),
+                "L" => repeats = value(word) as usize,
+                _ => {}
+            }
+        }
+        if cycle {
+            if let Some(v) = dr {
+                r = if incremental { initial + v } else { v };
+            }
+            if let Some(v) = dz {
+                bottom = if incremental { r + v } else { v };
+            }
+        } else if let Some(v) = dz {
+            tool_z = if incremental { tool_z + v } else { v };
+        }
+        let moved = dx.is_some() || dy.is_some() || dz.is_some() || dr.is_some();
+        for _ in 0..repeats {
+            if incremental {
+                x += dx.unwrap_or(0.0);
+                y += dy.unwrap_or(0.0);
+            } else {
+                x = dx.unwrap_or(x);
+                y = dy.unwrap_or(y);
+            }
+            if cycle && moved {
+                holes.push([x, y, bottom, r]);
+            }
+        }
+    }
+    holes
+}
+
+/// Every hole of `written` lands where the same hole of `program` is meant: at its bottom
+/// and, on the hole's axis, at the R plane (µm).
+fn assert_holes_land(kin: &Kinematics, program: &str, written: &str) -> usize {
+    let (nominal, actual) = (holes_of(program), holes_of(written));
+    assert_eq!(nominal.len(), actual.len(), "{written}");
+    let mut worst: f64 = 0.0;
+    for (n, a) in nominal.iter().zip(&actual) {
+        for (zn, za) in [(n[2], a[2]), (n[3], a[3])] {
+            let (meant, _) = kin.pose(Model::Nominal, &[n[0], n[1], zn, 0.0, 0.0], 0.0);
+            let (reached, _) = kin.pose(Model::Actual, &[a[0], a[1], za, 0.0, 0.0], 0.0);
+            worst = worst.max((reached.p - meant.p).norm());
+        }
+    }
+    // The contract's residual: the resolution (0.0001 mm) and the solve.
+    assert!(worst < 2e-4, "a hole is {:.3} µm off", worst * 1e3);
+    nominal.len()
+}
+
+#[test]
+fn holes_repeated_with_l_in_g91_each_land() {
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = shop_errors(&machine, &mut Lcg(23));
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let program = "G21 G90 G17\nG0 X0 Y0 Z30 A0 C0\nG98 G81 X10 Y10 Z-5 R2 F100\n\
+                   G91 X7.5 L6\nY-12.25 L3\nX-7.5 Y2.5\nG90 G80\nG0 Z50\nM30\n";
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let mut out = Vec::new();
+    let summary = comp.run(program.as_bytes(), "rows.nc", &mut out).unwrap();
+    let written = String::from_utf8(out).unwrap();
+    assert_eq!(assert_holes_land(&kin, program, &written), 11, "{written}");
+    // The holes' corrections differ: each L block became a block per hole.
+    assert_eq!(summary.cycles_unrolled, 2, "{written}");
+    assert_eq!(summary.holes_added, 5 + 2);
+    assert!(!written.contains('L'), "{written}");
+    assert_eq!(written.lines().count(), program.lines().count() + 7);
+    // Uncorrected, the same words are off by microns: the check can fail.
+    let as_programmed = kin.pose(
+        Model::Actual,
+        &[10.0 + 7.5 * 6.0, 10.0, -5.0, 0.0, 0.0],
+        0.0,
+    );
+    let meant = kin.pose(
+        Model::Nominal,
+        &[10.0 + 7.5 * 6.0, 10.0, -5.0, 0.0, 0.0],
+        0.0,
+    );
+    assert!((as_programmed.0.p - meant.0.p).norm() > 5e-3);
+}
+
+#[test]
+fn holes_with_the_same_correction_keep_their_l() {
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    // Z positions 12 µm short everywhere: every hole takes the same correction.
+    let mut errors = nccomp::model::ErrorModel::zero(&machine);
+    errors.axes[2].motion = Some(MotionTable {
+        positions: vec![-300.0, 300.0],
+        values: [None, None, Some(vec![-0.012, -0.012]), None, None, None],
+        periodic: false,
+    });
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let program = "G21 G90 G17\nG0 X0 Y0 Z30 A0 C0\nG99 G81 X10 Y10 Z-5 R2 F100\n\
+                   G91 X7.5 L6\nG90 G80\nM30\n";
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let mut out = Vec::new();
+    let summary = comp.run(program.as_bytes(), "row.nc", &mut out).unwrap();
+    let written = String::from_utf8(out).unwrap();
+    assert_eq!(assert_holes_land(&kin, program, &written), 7, "{written}");
+    assert_eq!(summary.cycles_unrolled, 0);
+    assert!(written.contains("G91 X7.5 L6\n"), "{written}");
+    assert!(written.contains("Z-4.9880 R2.0120"), "{written}");
+}
+
+#[test]
+fn a_cycle_without_r_starts_where_the_machine_file_says() {
+    let mut machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = shop_errors(&machine, &mut Lcg(29));
+    let program =
+        "G21 G90 G17\nG0 X0 Y0 Z3 A0 C0\nG98 G82 X10 Y10 Z-5 P100 F100\nX20\nY-5\nG80\nM30\n";
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let err = comp
+        .run(program.as_bytes(), "p.nc", &mut Vec::new())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("p.nc:3:5: this canned cycle cannot be compensated: it gives no R plane"),
+        "{err}"
+    );
+    assert!(err.contains("[cycles] missing_r = \"initial\""), "{err}");
+    machine.cycle_r_initial = true;
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let mut out = Vec::new();
+    comp.run(program.as_bytes(), "p.nc", &mut out).unwrap();
+    let written = String::from_utf8(out).unwrap();
+    // Read with R at the level the cycle starts from, as the control does.
+    let with_r = |p: &str| p.replacen("G98 G82", "R3 G98 G82", 1);
+    let r_of = |p: &str| holes_of(p).iter().map(|h| h[3]).collect::<Vec<_>>();
+    if !written.contains(" R") {
+        assert_holes_land(&kin, &with_r(program), &with_r(&written));
+    } else {
+        // A corrected R that no longer prints as the start level is written.
+        assert_holes_land(&kin, &with_r(program), &written);
+        assert!(
+            r_of(&written).iter().all(|r| (r - 3.0).abs() < 0.05),
+            "{written}"
+        );
+    }
+}
+
+#[test]
+fn repeats_and_distances_nccomp_does_not_follow_are_refused() {
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = shop_errors(&machine, &mut Lcg(31));
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    for (program, at, what) in [
+        (
+            "G0 X0 Y0 Z30 A0 C0\nG81 X10 Y10 Z-4 R2 F100\nG91 X5 Z-1\n",
+            "p.nc:3:5: this canned cycle cannot be compensated: in incremental mode (G91) a cycle's Z and R are distances",
+            "Z in G91",
+        ),
+        (
+            "G0 X0 Y0 Z30 A0 C0\nG99 G81 X10 Y10 Z-4 R2 F100\nG91 X50\n",
+            "p.nc:3:5: this canned cycle cannot be compensated: here the corrected R plane",
+            "R in G91 under G99",
+        ),
+        (
+            "G0 X0 Y0 Z30 A0 C0\nG81 X10 Y10 Z-4 R2 F100\nG91 X5 L0\n",
+            "p.nc:3:8: the L word of a cycle block is its number of holes",
+            "L0",
+        ),
+        (
+            "G0 X0 Y0 Z30 A0 C0\nG81 X10 Y10 Z-4 R2 F100\nG91 X5 L3 M8\n",
+            "p.nc:3:11: an M or T word in a cycle block with an L repeat",
+            "M with L",
+        ),
+    ] {
+        let err = comp
+            .run(program.as_bytes(), "p.nc", &mut Vec::new())
+            .unwrap_err();
+        let err = err.to_string();
+        assert!(err.contains(at), "{what}: {err}");
+    }
+}

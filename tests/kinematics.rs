@@ -272,6 +272,7 @@ fn three_axis_rotary(rotary_first: bool) -> nccomp::model::Machine {
         codes: Default::default(),
         plane_solution: Default::default(),
         inch_default: false,
+        cycle_r_initial: false,
         work_offsets: None,
     }
 }

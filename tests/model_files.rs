@@ -1104,3 +1104,72 @@ fn a_machine_file_cannot_rename_nccomps_codes_or_name_a_code_twice() {
     );
     assert_diag(&with("tcp = [\"M428\"]"), "m.toml:13:1", &["tcp"]);
 }
+
+#[test]
+fn a_machine_file_names_codes_that_send_axes_to_machine_positions() {
+    let text =
+        format!("{SMALL}\n[codes]\nmachine_moves = {{ M25 = [\"Z\"], M71 = [\"X\", \"Z\"] }}\n");
+    let m = machine_file::parse(&text, "m.toml").unwrap_or_else(|e| panic!("{}", e.render()));
+    let moves: Vec<(String, u32)> = m
+        .codes
+        .machine_moves
+        .iter()
+        .map(|(n, axes)| (n.to_string(), *axes))
+        .collect();
+    let bit = |c: u8| 1u32 << (c - b'A');
+    assert_eq!(
+        moves,
+        [
+            ("M25".to_string(), bit(b'Z')),
+            ("M71".to_string(), bit(b'X') | bit(b'Z'))
+        ]
+    );
+    let with = |codes: &str| machine_error(&format!("{SMALL}\n[codes]\n{codes}\n"));
+    assert_diag(
+        &with("machine_moves = { M25 = [\"Q\"] }"),
+        "m.toml:13:26",
+        &["`Q` in `machine_moves` of [codes] is not an axis of this machine"],
+    );
+    assert_diag(
+        &with("machine_moves = { M25 = [] }"),
+        "m.toml:13:25",
+        &["names no axis", "belongs in `harmless`"],
+    );
+    assert_diag(
+        &with("machine_moves = { M3 = [\"Z\"] }"),
+        "m.toml:13:19",
+        &["M3 is one of nccomp's own codes"],
+    );
+    assert_diag(
+        &with("harmless = [\"M25\"]\nmachine_moves = { M25 = [\"Z\"] }"),
+        "m.toml:14:19",
+        &["M25 is already in `harmless`"],
+    );
+    assert_diag(
+        &with("machine_moves = [\"M25\"]"),
+        "m.toml:13:17",
+        &["expected `machine_moves` of [codes], a table of codes"],
+    );
+}
+
+#[test]
+fn a_machine_file_states_where_a_cycle_without_r_starts() {
+    let text = format!("{SMALL}\n[cycles]\nmissing_r = \"initial\"\n");
+    let m = machine_file::parse(&text, "m.toml").unwrap_or_else(|e| panic!("{}", e.render()));
+    assert!(m.cycle_r_initial);
+    assert!(
+        !machine_file::parse(SMALL, "m.toml")
+            .unwrap()
+            .cycle_r_initial
+    );
+    assert_diag(
+        &machine_error(&format!("{SMALL}\n[cycles]\nmissing_r = \"r\"\n")),
+        "m.toml:13:13",
+        &["`r` in `missing_r` of [cycles]: expected \"initial\""],
+    );
+    assert_diag(
+        &machine_error(&format!("{SMALL}\n[cycles]\nr = 1\n")),
+        "m.toml:13:1",
+        &["r"],
+    );
+}

@@ -103,12 +103,12 @@ fn values_known_only_at_run_time_are_refused_where_they_are_used() {
         (
             "G0 X0 Y0 Z50. C0 A0\nG1 X#5021\n",
             "p.nc:2:4",
-            "X is given by a parameter, #5021, whose value is not known",
+            "X is given by a parameter, #5021, which the program never sets (a system variable, or one set by an operator, a probing cycle or another program): its value is decided at run time",
         ),
         (
             "#1=[2*3]\nG0 X#1\n",
             "p.nc:2:4",
-            "X is given by a parameter, #1",
+            "X is given by a parameter, #1, which the program sets to an expression or another parameter, not a constant",
         ),
         (
             "/#1=5.\nG0 X#1\n",
@@ -116,6 +116,21 @@ fn values_known_only_at_run_time_are_refused_where_they_are_used() {
             "X is given by a parameter, #1",
         ),
         ("#5221=-100.\n", "p.nc:1:1", "offset variables"),
+        (
+            "G0 X0 Y0 Z50. C0 A0\nIF[#1005EQ0]GOTO10\n",
+            "p.nc:2:1",
+            "a macro branch (IF … GOTO / THEN) cannot be compensated: which blocks run depends on #1005, which the program never sets",
+        ),
+        (
+            "G0 X0 Y0 Z50. C0 A0\nG90 G10 L11 P#4120 R-1.0\n",
+            "p.nc:2:5",
+            "G10 cannot be compensated: data setting (G10) writes the controller's offsets from #4120, which the program never sets",
+        ),
+        (
+            "G0 X0 Y0 Z50. C0 A0\nG43 Z50.\n",
+            "p.nc:2:1",
+            "which tool that is, and so where the tip is, is decided at run time",
+        ),
     ] {
         let mut out = Vec::new();
         let err = comp

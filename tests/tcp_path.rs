@@ -295,6 +295,7 @@ fn a_machine_files_tcp_switches_make_a_linuxcnc_program_a_tcp_program() {
         harmless: Vec::new(),
         tcp_on: vec![name("M428")],
         tcp_off: vec![name("M429")],
+        machine_moves: Vec::new(),
     };
     let kin = Kinematics::new(&machine, &errors(&machine), 0).unwrap();
     let written = compensate(&machine, LINUXCNC_TCP).unwrap();

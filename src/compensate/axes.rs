@@ -111,7 +111,7 @@ impl Mode for AxesMode {
         let (pass, cx, state, out) = b.parts();
         if state.modal.incremental {
             let units = state.units;
-            pass.write_increments(cx, &units, &end.q, state, out)
+            pass.write_increments(cx, &units, &end.q, u32::MAX, state, out)
         } else {
             pass.write_positions(cx, &end.q, cx.motion.optional, state, out)
         }

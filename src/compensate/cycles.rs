@@ -14,14 +14,18 @@
 //! The same rules hold there with the words in the plane's frame.
 
 use super::Pass;
-use super::pipeline::{Block, Cx, Mode};
+use super::pipeline::{Block, Cx, Mode, Out};
 use crate::diag::Diagnostic;
 use crate::kinematics::{MAX_AXES, Model, Solution};
 use crate::model::AxisKind;
+use crate::nc::TokenKind;
+use crate::nc::edit::Editor;
 use crate::nc::number::write_fixed;
 use crate::program::WorkingPlane;
 use crate::program::exact::{Position, Unit};
+use crate::program::gcode;
 use nalgebra::Vector3;
+use std::fmt::Write;
 
 /// The modal state of an active cycle.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,6 +37,9 @@ pub(super) struct Cycle {
     pub r_written: Option<f64>,
     /// The Z level before the cycle began: nominal and as the machine was told (mm).
     pub initial: (f64, f64),
+    /// The nominal initial level and R plane exactly (for G91 blocks after the cycle).
+    pub initial_exact: Position,
+    pub r_exact: Option<Position>,
 }
 
 /// A block of an active drilling cycle.
@@ -49,6 +56,9 @@ pub(super) struct CycleMode {
     frame: Option<WorkingPlane>,
     bottom_words: Vector3<f64>,
     r_words: Vector3<f64>,
+    /// The holes of an L-repeated block in G91: each one's X, Y increments (variable,
+    /// digits, exact units; none for 0); `None`: the block is one hole, written in place.
+    holes: Option<Vec<Hole>>,
 }
 
 impl CycleMode {
@@ -114,6 +124,131 @@ impl CycleMode {
     }
 }
 
+/// A hole of an L-repeated block: its X, Y increments (variable, digits, exact units; none
+/// for 0), and the Z and R words it needs (letter, digits).
+type Hole = (Vec<(usize, String, i128)>, Vec<(u8, String)>);
+
+/// Words added after the block's axis words (Z and R of a hole in G91).
+fn insert_after_axis_words(cx: &Cx<'_, '_>, out: &mut Out<'_>, words: &[(u8, String)]) {
+    if words.is_empty() {
+        return;
+    }
+    let end = cx
+        .motion
+        .axis_words
+        .iter()
+        .flatten()
+        .map(|&i| cx.tokens[i].span.end)
+        .max()
+        .unwrap_or(cx.line.content.len());
+    let words: Vec<(u8, &str)> = words.iter().map(|(l, t)| (*l, t.as_str())).collect();
+    cx.editor(out.edits).insert_words_at(end, &words);
+    out.summary.words_added += words.len();
+}
+
+/// A cycle block's L word and its count of repeats, when it has one above 1 (L1 is one
+/// hole; in G90 the holes are all in one place, and the block is one hole's).
+pub(super) fn repeats(cx: &Cx<'_, '_>) -> Result<Option<(usize, u32)>, Diagnostic> {
+    let Some(i) = cx.word(b'L') else {
+        return Ok(None);
+    };
+    let (value, _, _) = cx.number(i);
+    let is_number = matches!(&cx.tokens[i].kind, TokenKind::Word(w) if matches!(w.value, crate::nc::Value::Number { .. }));
+    if !is_number || value.fract() != 0.0 || !(1.0..=9999.0).contains(&value) {
+        return Err(cx.refuse(
+            cx.col(i),
+            "the L word of a cycle block is its number of holes: expected a whole number from 1 to 9999 (L0, which stores the cycle without drilling, is not supported)".into(),
+        ));
+    }
+    Ok((value > 1.0).then_some((i, value as u32)))
+}
+
+impl CycleMode {
+    /// A cycle block repeated `repeats` times in G91 (Haas's L): each hole is compensated on
+    /// its own. Where every hole takes the same corrected increments the block keeps its L
+    /// with them; otherwise it is unrolled: a block for each hole but the last inserted
+    /// before the line (its G codes, feed and cycle words carried, as a split move's pieces
+    /// are), the line itself the last hole, without its L.
+    pub(super) fn repeated(b: &mut Block, l_word: usize, repeats: u32) -> Result<(), Diagnostic> {
+        if let Some(i) = gcode::once_word(b.cx.tokens) {
+            return Err(b.cx.refuse(
+                b.cx.col(i),
+                "an M or T word in a cycle block with an L repeat cannot be compensated: the holes' corrections differ, and unrolled the word would run once per hole (put it in a block of its own)".into(),
+            ));
+        }
+        let mut mode = CycleMode {
+            holes: Some(Vec::new()),
+            ..CycleMode::default()
+        };
+        for _ in 0..repeats {
+            super::pipeline::run(&mut mode, b)?;
+        }
+        let holes = mode.holes.take().unwrap_or_default();
+        let (pass, cx, state, out) = b.parts();
+        let Some(last) = holes.last() else {
+            return Ok(());
+        };
+        let same = holes.iter().all(|h| h == last);
+        if !same {
+            let mut editor = cx.editor(out.edits);
+            let style = editor.style();
+            let ending = Editor::ending(cx.line.ending);
+            let numbers = editor.inserted_numbers(state.last_n, holes.len() - 1);
+            let mut text = String::new();
+            for (k, hole) in holes[..holes.len() - 1].iter().enumerate() {
+                let mut words: Vec<String> = Vec::new();
+                if let Some(number) = &numbers[k] {
+                    words.push(style.word(b'N', number));
+                }
+                for (i, t) in cx.tokens.iter().enumerate() {
+                    if let TokenKind::Word(w) = &t.kind
+                        && !matches!(w.letter, b'N' | b'L' | b'O')
+                        && !cx.motion.axis_words.contains(&Some(i))
+                    {
+                        words.push(String::from_utf8_lossy(editor.text(i)).into_owned());
+                    }
+                }
+                for (v, digits, units) in &hole.0 {
+                    // An increment as programmed keeps the program's text.
+                    match cx.motion.axis_words[*v] {
+                        Some(i) if *units == state.units[*v] => {
+                            words.push(String::from_utf8_lossy(editor.text(i)).into_owned());
+                        }
+                        _ => words.push(style.word(pass.letter(*v), digits)),
+                    }
+                }
+                for (letter, digits) in &hole.1 {
+                    words.push(style.word(*letter, digits));
+                }
+                let _ = write!(text, "{}{}", words.join(style.separator), ending);
+            }
+            editor.insert_blocks(text);
+            editor.remove_word(l_word);
+            out.summary.note_unrolled(cx.line.number, holes.len() - 1);
+        }
+        // The line: the last hole's increments (every hole's, where they agree).
+        for v in [mode.vars[0], mode.vars[1]] {
+            let hole = last.0.iter().find(|h| h.0 == v);
+            match cx.motion.axis_words[v] {
+                Some(i) if hole.map_or(0, |h| h.2) != state.units[v] => {
+                    let digits = hole.map_or_else(|| "0".to_string(), |h| h.1.clone());
+                    cx.editor(out.edits).replace_number(i, digits);
+                    out.summary.words_changed += 1;
+                }
+                Some(_) => {}
+                None => {
+                    if let Some((_, digits, _)) = hole {
+                        pass.insert_axis_word(cx, out, v, digits);
+                        out.summary.words_added += 1;
+                    }
+                }
+            }
+        }
+        insert_after_axis_words(cx, out, &last.1);
+        Ok(())
+    }
+}
+
 impl Mode for CycleMode {
     fn target(&mut self, b: &mut Block, q: &mut [f64; MAX_AXES]) -> Result<bool, Diagnostic> {
         let (pass, cx, state, _) = b.parts();
@@ -129,9 +264,13 @@ impl Mode for CycleMode {
         };
         self.vars = [vx, vy, vz];
         self.frame = state.modal.working_plane;
-        if state.modal.incremental {
+        if state.modal.incremental
+            && (self.frame.is_some()
+                || axis_words[vz].is_some()
+                || cx.motion.arc_words[3].is_some())
+        {
             return refuse(
-                "in incremental mode (G91) its R and Z are relative (program the cycle in G90)",
+                "in incremental mode (G91) a cycle's Z and R are distances (R from the level the cycle starts from, Z from R), which nccomp does not follow; in G91 it follows X and Y increments, with Z and R given in G90 before (program Z and R in G90)",
             );
         }
         if state.modal.plane != 0 {
@@ -152,7 +291,7 @@ impl Mode for CycleMode {
         }
         if state.pos.unknown & !pass.spindle != 0 {
             return refuse(
-                "it starts where an axis is at a place nccomp does not know (after G28, G30, G53, M19 or a change of tool chain)",
+                "it starts where an axis is at a place nccomp does not know (after G28, G30, G53, a machine move code, M19 or a change of tool chain)",
             );
         }
         if let Some((v, i)) = cx.word_outside(n, &[vx, vy, vz]) {
@@ -194,25 +333,43 @@ impl Mode for CycleMode {
             bottom_written: None,
             r_written: None,
             initial,
+            initial_exact: state.pos.exact[vz],
+            r_exact: None,
         });
         if let Some(i) = axis_words[vz] {
             cycle.bottom = Some(zu.to_mm(cx.number(i).0));
         }
         if let Some(i) = cx.motion.arc_words[3] {
-            cycle.r_plane = Some(zu.to_mm(cx.number(i).0));
+            let (value, decimals, _) = cx.number(i);
+            cycle.r_plane = Some(zu.to_mm(value));
+            cycle.r_exact = Some(Position::Decimal {
+                value,
+                decimals,
+                unit: zu,
+            });
+        }
+        if cycle.r_plane.is_none() && pass.machine.cycle_r_initial {
+            // The control's rule, as the machine file states it: R is where the cycle
+            // starts, so no R word is needed while the corrected R prints the same.
+            cycle.r_plane = Some(cycle.initial.0);
+            cycle.r_written = Some(zu.of_mm(cycle.initial.1));
+            cycle.r_exact = Some(cycle.initial_exact);
         }
         let (Some(bottom), Some(r_plane)) = (cycle.bottom, cycle.r_plane) else {
-            return refuse("it needs its bottom (Z) and retract plane (R)");
+            return refuse(match cycle.bottom {
+                None => "it needs its bottom (Z) and retract plane (R)",
+                Some(_) => {
+                    "it gives no R plane, and where a control then puts it is the control's rule (expected an R word; a machine file whose control takes the level the cycle starts from says so with `[cycles] missing_r = \"initial\"`)"
+                }
+            });
         };
         if let Some(frame) = self.frame {
             return self.plane_target(b, &frame, cycle, q);
         }
         for v in [vx, vy] {
-            if let Some(i) = axis_words[v] {
-                state.pos.nominal[v] = pass.unit(v, &state.modal).to_mm(cx.number(i).0);
-                state.pos.programmed |= 1 << v;
-            }
-            if state.pos.programmed & (1 << v) == 0 {
+            if state.pos.programmed & (1 << v) == 0
+                && (state.modal.incremental || axis_words[v].is_none())
+            {
                 return Err(Self::refuse(
                     cx,
                     format!(
@@ -222,6 +379,17 @@ impl Mode for CycleMode {
                 ));
             }
         }
+        // X and Y (G91 exactly); the Z word's place is taken again below and after the
+        // hole.
+        state.pos.advance(
+            &pass.axes,
+            cx.line.content,
+            cx.tokens,
+            cx.motion,
+            &state.modal,
+            cx.at,
+            &mut state.units,
+        )?;
         self.cycle = Some(cycle);
         let mut q_bottom = state.pos.nominal;
         q_bottom[vz] = bottom;
@@ -305,6 +473,64 @@ impl Mode for CycleMode {
                     state.emitted = q;
                 }
                 zu.of_mm(self.r_words.z)
+            }
+            None if state.modal.incremental => {
+                // X and Y as increments. Z and R keep their places while they print the
+                // same; otherwise they are written as the distances G91 reads: Z from the
+                // R plane (every control), R from the initial level, which is where the
+                // tool starts each hole only under G98.
+                let d = pass.res_decimals(vz, zu).max(state.decimals[vz]).min(9);
+                let scale = 10f64.powi(d.into());
+                let m = |x: f64| (x * scale).round() as i64;
+                let fits =
+                    |written: Option<f64>, value: f64| written.is_some_and(|w| m(w) == m(value));
+                let (bottom, r) = (zu.of_mm(end.q[vz]), zu.of_mm(r_sol.q[vz]));
+                let mut zr: Vec<(u8, String)> = Vec::new();
+                let r_fits = fits(cycle.r_written, r);
+                if !r_fits {
+                    let initial = zu.of_mm(cycle.initial.1);
+                    if !state.modal.retract_to_initial
+                        || (initial * scale - m(initial) as f64).abs() > 1e-6
+                    {
+                        return Err(Self::refuse(
+                            cx,
+                            format!(
+                                "here the corrected R plane ({r:.6}) no longer prints as given ({:.6}), and a G91 R word is a distance whose start differs between controls unless the tool starts each hole at the initial level (G98) (program this hole in G90, or in G98)",
+                                cycle.r_written.unwrap_or(f64::NAN)
+                            ),
+                        ));
+                    }
+                    let inc = m(r) - m(initial);
+                    let mut text = String::new();
+                    crate::nc::number::write_scaled(inc.into(), d, &mut text);
+                    zr.push((b'R', text));
+                    cycle.r_written = Some((m(initial) + inc) as f64 / scale);
+                }
+                if !r_fits || !fits(cycle.bottom_written, bottom) {
+                    let from = m(cycle.r_written.unwrap_or(r));
+                    let inc = m(bottom) - from;
+                    let mut text = String::new();
+                    crate::nc::number::write_scaled(inc.into(), d, &mut text);
+                    zr.insert(0, (b'Z', text));
+                    cycle.bottom_written = Some((from + inc) as f64 / scale);
+                }
+                // At the bottom, for the record of the block.
+                state.emitted[vz] = cycle.bottom_written.map_or(f64::NAN, |z| zu.to_mm(z));
+                let units = state.units;
+                let xy = 1 << self.vars[0] | 1 << self.vars[1];
+                match self.holes.as_mut() {
+                    // A repeat of an L-repeated hole: its words, for a block of its own.
+                    Some(holes) => {
+                        let mut words = Vec::new();
+                        pass.hole_words(cx, &end.q, xy, state, &mut words);
+                        holes.push((words, zr));
+                    }
+                    None => {
+                        pass.write_increments(cx, &units, &end.q, xy, state, out)?;
+                        insert_after_axis_words(cx, out, &zr);
+                    }
+                }
+                return Ok(());
             }
             None => {
                 state.emitted[vz] = cycle.bottom_written.map_or(f64::NAN, |z| zu.to_mm(z));
@@ -397,6 +623,11 @@ impl Mode for CycleMode {
             return;
         }
         state.pos.nominal[vz] = z_nominal;
+        state.pos.exact[vz] = if z_nominal == cycle.initial.0 {
+            cycle.initial_exact
+        } else {
+            cycle.r_exact.unwrap_or(cycle.initial_exact)
+        };
         state.emitted[vz] = z_emitted;
         state.written[vz] = Position::Decimal {
             value: zu.of_mm(z_emitted),

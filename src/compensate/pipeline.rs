@@ -115,7 +115,7 @@ impl Cx<'_, '_> {
 }
 
 /// The stages, in order.
-fn run<M: Mode>(mode: &mut M, b: &mut Block) -> Result<(), Diagnostic> {
+pub(super) fn run<M: Mode>(mode: &mut M, b: &mut Block) -> Result<(), Diagnostic> {
     // Filled by the mode (an out-parameter: 128 bytes in a `Result` are copied twice).
     let mut target = [0.0; MAX_AXES];
     if !mode.target(b, &mut target)? {
@@ -236,7 +236,12 @@ impl Pass<'_> {
             out,
         };
         match cx.motion.kind {
-            MoveKind::Cycle => run(&mut super::cycles::CycleMode::default(), &mut b),
+            MoveKind::Cycle => match super::cycles::repeats(cx)? {
+                Some((l_word, repeats)) if b.state.modal.incremental => {
+                    super::cycles::CycleMode::repeated(&mut b, l_word, repeats)
+                }
+                _ => run(&mut super::cycles::CycleMode::default(), &mut b),
+            },
             MoveKind::Arc { clockwise } if tip_words => {
                 run(&mut super::tcp::TcpMode::arc(clockwise), &mut b)
             }
@@ -254,7 +259,10 @@ impl Pass<'_> {
             .filter(|&v| cx.motion.axis_words[v].is_some())
             .fold(0u32, |m, v| m | 1 << v);
         if cx.motion.kind == MoveKind::Home && gone == 0 {
-            gone = (0..n).fold(0u32, |m, v| m | 1 << v);
+            gone = match cx.motion.homed {
+                0 => (0..n).fold(0u32, |m, v| m | 1 << v),
+                homed => homed,
+            };
         }
         state.pos.unknown |= gone;
         state.uncertain &= !gone;

@@ -53,7 +53,7 @@ impl Pass<'_> {
             return Err(cx.refuse(
                 col,
                 format!(
-                    "the controller's choice of rotary positions for G53.1 depends on where axis {} stands, which is not known here (after G28, G30 or G53; program it before G53.1)",
+                    "the controller's choice of rotary positions for G53.1 depends on where axis {} stands, which is not known here (after G28, G30, G53 or a machine move code; program it before G53.1)",
                     self.axis_name(v)
                 ),
             ));
@@ -107,7 +107,7 @@ impl Pass<'_> {
             return Err(cx.refuse(
                 cx.first_word_col(),
                 format!(
-                    "where axis {} stands under this tilted working plane is not known (after G28, G30 or G53; expected G53.1 after G68.2)",
+                    "where axis {} stands under this tilted working plane is not known (after G28, G30, G53 or a machine move code; expected G53.1 after G68.2)",
                     pass.axis_name(v)
                 ),
             ));
@@ -129,7 +129,7 @@ impl Pass<'_> {
         if !given && state.pos.unknown != 0 {
             return Err(cx.refuse(
                 cx.first_word_col(),
-                "where the tool stands in the tilted working plane before this block is not known (after G28, G30 or G53; expected X, Y and Z in this block)".into(),
+                "where the tool stands in the tilted working plane before this block is not known (after G28, G30, G53 or a machine move code; expected X, Y and Z in this block)".into(),
             ));
         }
         Ok(())

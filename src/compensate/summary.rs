@@ -85,6 +85,11 @@ pub struct Summary {
     pub blocks_added: usize,
     pub moves_split: usize,
     pub first_split: usize,
+    /// Cycle blocks with an L repeat written as a block per hole, the first, and the
+    /// blocks inserted for them.
+    pub cycles_unrolled: usize,
+    pub first_unrolled: usize,
+    pub holes_added: usize,
     /// Moves that needed a split but were kept whole (M or T words, G93 without F), and
     /// the first.
     pub unsplit_moves: usize,
@@ -220,6 +225,14 @@ impl Summary {
                 count(self.blocks_added, "block")
             ));
         }
+        if self.cycles_unrolled > 0 {
+            out.push(format!(
+                "{} with an L repeat written as a block per hole, their corrections differing (first at line {}): {} added",
+                count(self.cycles_unrolled, "cycle block"),
+                self.first_unrolled,
+                count(self.holes_added, "block")
+            ));
+        }
         if self.arcs_kept > 0 {
             out.push(format!(
                 "{} kept as arcs (compensated end and centre stay within the path tolerance)",
@@ -270,9 +283,9 @@ impl Summary {
                 },
                 self.unknown_axes.join(", "),
                 if self.lathe_unknown {
-                    "after G28, G30, G53, M19 or a change of tool chain"
+                    "after G28, G30, G53, a machine move code, M19 or a change of tool chain"
                 } else {
-                    "after G28, G30 or G53"
+                    "after G28, G30, G53 or a machine move code"
                 }
             ));
         }
@@ -324,6 +337,14 @@ impl Summary {
         }
         self.moves_split += 1;
         self.blocks_added += added;
+    }
+
+    pub(crate) fn note_unrolled(&mut self, line: usize, added: usize) {
+        if self.cycles_unrolled == 0 {
+            self.first_unrolled = line;
+        }
+        self.cycles_unrolled += 1;
+        self.holes_added += added;
     }
 
     pub(crate) fn note_arc_kept(&mut self) {

@@ -98,17 +98,19 @@ impl Pass<'_> {
     /// of everything written) to its compensated position `q` rounded: the written
     /// positions never drift from the rounded compensated ones. A word keeps its bytes
     /// when its increment prints the same; an axis the block omits (increment 0) gets a
-    /// word when its compensated increment is not 0. `units`: the block's words, exactly.
+    /// word when its compensated increment is not 0. `units`: the block's words, exactly;
+    /// `only`: the variables written (a cycle's X and Y).
     pub(super) fn write_increments(
         &self,
         cx: &Cx<'_, '_>,
         units: &[i128; MAX_AXES],
         q: &[f64],
+        only: u32,
         state: &mut State,
         out: &mut Out<'_>,
     ) -> Result<(), Diagnostic> {
         let (line, axis_words) = (cx.line, &cx.motion.axis_words);
-        for &v in &self.write_order {
+        for &v in self.write_order.iter().filter(|&&v| only & (1 << v) != 0) {
             let bit = 1u32 << v;
             let unit = self.unit(v, &state.modal);
             let value = unit.of_mm(q[v]);
@@ -228,6 +230,43 @@ impl Pass<'_> {
                 };
             }
             words.push(style.word(self.letter(v), &number));
+        }
+    }
+
+    /// G91: the increments of the variables in `only` from what the machine was told to
+    /// their compensated positions `q`, as (variable, digits, units), for a block of its own (a
+    /// repeat of an L-repeated hole); an increment of 0 is left out. Follows what the
+    /// machine is told.
+    pub(super) fn hole_words(
+        &self,
+        cx: &Cx<'_, '_>,
+        q: &[f64; MAX_AXES],
+        only: u32,
+        state: &mut State,
+        words: &mut Vec<(usize, String, i128)>,
+    ) {
+        for &v in self.write_order.iter().filter(|&&v| only & (1 << v) != 0) {
+            let unit = self.unit(v, &state.modal);
+            // As the block's own increments are written (`write_increments`).
+            let d = match cx.motion.axis_words[v] {
+                Some(i) => cx.number(i).1.max(self.res_decimals(v, unit)),
+                None => state.decimals[v]
+                    .max(self.res_decimals(v, unit))
+                    .min(exact::MAX_DECIMALS),
+            };
+            let Some((k, e)) =
+                exact::increment(state.written[v].units(), unit.of_mm(q[v]), d, unit)
+            else {
+                continue;
+            };
+            let increment = exact::units(k, e, unit).unwrap_or(0);
+            if k != 0 {
+                let mut number = String::new();
+                exact::write_digits(k, e, &mut number);
+                words.push((v, number, increment));
+            }
+            state.written[v] = state.written[v].add(increment);
+            state.emitted[v] = exact::to_f64(state.written[v].units());
         }
     }
 

@@ -178,19 +178,20 @@ impl Kinematics {
             options,
         );
         let mut fine = dev.position <= tol.position && dev.direction <= tol.direction;
-        if !fine && dev.position <= tol.position {
-            // The direction the solved ends leave (a machine with fewer than five axes, a
-            // held rotary axis) is the floor: halving cannot take the path below it.
-            let floor = self
-                .deviation(
-                    (&n0[..n], &n1[..n]),
-                    (&c0[..n], &c1[..n]),
-                    length,
-                    &[0.0, 1.0],
-                    options,
-                )
-                .direction;
-            fine = dev.direction <= floor + tol.direction;
+        if !fine {
+            // What the ends leave is the floor: halving cannot take the path below it. In
+            // direction: a machine with fewer than five axes, a held rotary axis; in
+            // position: the start as written, rounded to a resolution coarser than the
+            // tolerance (0.0001 in is 2.54 µm), or left uncompensated.
+            let floor = self.deviation(
+                (&n0[..n], &n1[..n]),
+                (&c0[..n], &c1[..n]),
+                length,
+                &[0.0, 1.0],
+                options,
+            );
+            fine = dev.position <= floor.position.max(tol.position)
+                && dev.direction <= floor.direction + tol.direction;
         }
         if fine {
             out.push(Piece {

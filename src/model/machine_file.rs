@@ -68,6 +68,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
             "working_plane",
             "work_offsets",
             "units",
+            "cycles",
         ],
         "the machine file",
     )?;
@@ -87,6 +88,10 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
                 ));
             }
         },
+        None => false,
+    };
+    let cycle_r_initial = match root.get("cycles") {
+        Some(v) => cycles(&doc, v)?,
         None => false,
     };
     let resolution = match root.get("resolution") {
@@ -269,7 +274,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
     };
 
     let codes = match root.get("codes") {
-        Some(v) => codes(&doc, v)?,
+        Some(v) => codes(&doc, v, &axes)?,
         None => MachineCodes::default(),
     };
 
@@ -295,7 +300,31 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         plane_solution,
         inch_default,
         work_offsets,
+        cycle_r_initial,
     })
+}
+
+/// `[cycles]`: `missing_r = "initial"` says that this control takes the level a drilling
+/// cycle starts from as its R plane when the cycle gives no R (a Haas does); without it a
+/// cycle with no R is refused.
+fn cycles(doc: &Doc, v: &Spanned<DeValue>) -> Result<bool> {
+    let t = doc.table(
+        v,
+        "[cycles], a table with `missing_r = \"initial\"` (the R plane of a cycle given no R is the level it starts from)",
+    )?;
+    doc.check_keys(t, &["missing_r"], "[cycles]")?;
+    let Some(r) = t.get("missing_r") else {
+        return Ok(false);
+    };
+    match doc.string(r, "`missing_r` of [cycles]")? {
+        "initial" => Ok(true),
+        other => Err(doc.err(
+            r.span(),
+            format!(
+                "`{other}` in `missing_r` of [cycles]: expected \"initial\" (the control takes the level the cycle starts from as its R plane); leave the key out where the control needs R"
+            ),
+        )),
+    }
 }
 
 /// Refuse a machine that cannot set the tool's pose with the workpiece chain and `chain`:
@@ -394,14 +423,51 @@ fn geometry(
 }
 
 /// `[codes]`: the machine's own G and M codes, each in one list, none of nccomp's own.
-fn codes(doc: &Doc, v: &Spanned<DeValue>) -> Result<MachineCodes> {
+fn codes(doc: &Doc, v: &Spanned<DeValue>, axes: &[Axis]) -> Result<MachineCodes> {
     let t = doc.table(
         v,
-        "[codes], a table with `harmless`, `tcp_on` and `tcp_off` lists such as [\"M428\"]",
+        "[codes], a table with `harmless`, `tcp_on` and `tcp_off` lists such as [\"M428\"] and a `machine_moves` table such as { M25 = [\"Z\"] }",
     )?;
-    doc.check_keys(t, &["harmless", "tcp_on", "tcp_off"], "[codes]")?;
+    doc.check_keys(
+        t,
+        &["harmless", "tcp_on", "tcp_off", "machine_moves"],
+        "[codes]",
+    )?;
     let mut codes = MachineCodes::default();
     let mut seen: Vec<(CodeName, &str)> = Vec::new();
+    // A code's name, checked: a G or M code of this machine's own, in one list only.
+    let mut name_of = |text: &str, span, key: &'static str| {
+        let Some(name) = CodeName::parse(text) else {
+            return Err(doc.err(
+                span,
+                format!(
+                    "`{text}` in `{key}` of [codes]: expected a G or M code such as \"M428\" \
+                     or \"G5.1\" (a letter, a number, at most one decimal)"
+                ),
+            ));
+        };
+        if program::codes::is_known(name) {
+            return Err(doc.err(
+                span,
+                format!(
+                    "`{text}` in `{key}` of [codes]: {name} is one of nccomp's own codes \
+                     (docs/nc-support.md), and a machine file cannot give it another \
+                     meaning; expected a code of this machine's own"
+                ),
+            ));
+        }
+        if let Some((_, other)) = seen.iter().find(|(n, _)| *n == name) {
+            return Err(doc.err(
+                span,
+                format!(
+                    "`{text}` in `{key}` of [codes]: {name} is already in `{other}`; \
+                     expected each code in one list, once"
+                ),
+            ));
+        }
+        seen.push((name, key));
+        Ok(name)
+    };
     for key in ["harmless", "tcp_on", "tcp_off"] {
         let Some(list) = t.get(key) else { continue };
         let what = format!("`{key}` of [codes], a list of codes such as [\"M428\"]");
@@ -413,40 +479,64 @@ fn codes(doc: &Doc, v: &Spanned<DeValue>) -> Result<MachineCodes> {
         })?;
         for e in array.iter() {
             let text = doc.string(e, &format!("a code in `{key}` of [codes]"))?;
-            let Some(name) = CodeName::parse(text) else {
-                return Err(doc.err(
-                    e.span(),
-                    format!(
-                        "`{text}` in `{key}` of [codes]: expected a G or M code such as \"M428\" \
-                         or \"G5.1\" (a letter, a number, at most one decimal)"
-                    ),
-                ));
-            };
-            if program::codes::is_known(name) {
-                return Err(doc.err(
-                    e.span(),
-                    format!(
-                        "`{text}` in `{key}` of [codes]: {name} is one of nccomp's own codes \
-                         (docs/nc-support.md), and a machine file cannot give it another \
-                         meaning; expected a code of this machine's own"
-                    ),
-                ));
-            }
-            if let Some((_, other)) = seen.iter().find(|(n, _)| *n == name) {
-                return Err(doc.err(
-                    e.span(),
-                    format!(
-                        "`{text}` in `{key}` of [codes]: {name} is already in `{other}`; \
-                         expected each code in one list, once"
-                    ),
-                ));
-            }
-            seen.push((name, key));
+            let name = name_of(text, e.span(), key)?;
             match key {
                 "harmless" => codes.harmless.push(name),
                 "tcp_on" => codes.tcp_on.push(name),
                 _ => codes.tcp_off.push(name),
             }
+        }
+    }
+    if let Some(moves) = t.get("machine_moves") {
+        let what = "`machine_moves` of [codes], a table of codes and the axes each sends to \
+                    machine positions, such as { M25 = [\"Z\"] }";
+        let table = moves.get_ref().as_table().ok_or_else(|| {
+            doc.err(
+                moves.span(),
+                format!("expected {what}, found {}", describe(moves.get_ref())),
+            )
+        })?;
+        for (key, list) in table.iter() {
+            let name = name_of(key.get_ref(), key.span(), "machine_moves")?;
+            let array = list.get_ref().as_array().ok_or_else(|| {
+                doc.err(
+                    list.span(),
+                    format!(
+                        "expected the axes {} sends to machine positions, a list such as \
+                         [\"Z\"], found {}",
+                        key.get_ref(),
+                        describe(list.get_ref())
+                    ),
+                )
+            })?;
+            if array.is_empty() {
+                return Err(doc.err(
+                    list.span(),
+                    format!(
+                        "{} in `machine_moves` of [codes] names no axis: expected the axes \
+                         it sends to machine positions, such as [\"Z\"] (a code that moves \
+                         none belongs in `harmless`)",
+                        key.get_ref()
+                    ),
+                ));
+            }
+            let mut letters = 0u32;
+            for e in array.iter() {
+                let text = doc.string(e, "an axis in `machine_moves` of [codes]")?;
+                let Some(axis) = axes.iter().find(|a| a.name == text) else {
+                    let known: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
+                    return Err(doc.err(
+                        e.span(),
+                        format!(
+                            "`{text}` in `machine_moves` of [codes] is not an axis of this \
+                             machine (expected one of {})",
+                            known.join(", ")
+                        ),
+                    ));
+                };
+                letters |= 1 << (axis.word as u8 - b'A');
+            }
+            codes.machine_moves.push((name, letters));
         }
     }
     Ok(codes)

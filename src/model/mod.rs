@@ -202,6 +202,10 @@ pub struct Machine {
     /// The controller's work offsets (machine file `[work_offsets]`); `None`: the machine
     /// file's geometry is in the program zero of the one work offset a program uses.
     pub work_offsets: Option<WorkOffsets>,
+    /// A drilling cycle given no R word takes the level it starts from as its R plane
+    /// (machine file `[cycles] missing_r = "initial"`, a Haas control); otherwise it is
+    /// refused.
+    pub cycle_r_initial: bool,
 }
 
 /// The work offset table of a controller: where each program zero lies, in machine

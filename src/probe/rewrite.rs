@@ -198,7 +198,9 @@ fn classify(code: Code) -> G {
         Code::Feed { .. } => FeedPerMinute,
         Code::CancelCycle => CycleCancel,
         Code::DataSetting(_) => Data,
-        Code::ReturnHome | Code::SetReference | Code::MachineCoordinates => Lost,
+        Code::ReturnHome | Code::SetReference | Code::MachineCoordinates | Code::MachineMove(_) => {
+            Lost
+        }
         Code::WorkOffset(number) => WorkOffset(number),
         Code::ExtendedWorkOffset => WorkOffset(541),
         Code::MacroCall => Call,
@@ -311,6 +313,7 @@ pub fn rewrite(
         harmless: Vec::new(),
         tcp_on: Vec::new(),
         tcp_off: Vec::new(),
+        machine_moves: Vec::new(),
     };
     let pass = Pass {
         axes,

@@ -207,7 +207,7 @@ pub fn arc_path(
     let n = axes.len();
     if pos.unknown & !ignored != 0 {
         return Err(
-            "the arc starts where an axis is at a place nccomp does not know (after G28, G30, G53, M19 or a change of tool chain)".into(),
+            "the arc starts where an axis is at a place nccomp does not know (after G28, G30, G53, a machine move code, M19 or a change of tool chain)".into(),
         );
     }
     if modal.diameter && modal.arc_absolute {

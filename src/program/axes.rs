@@ -171,7 +171,10 @@ impl Positions {
             .filter(|&v| motion.axis_words[v].is_some())
             .fold(0u32, |m, v| m | 1 << v);
         if motion.kind == super::MoveKind::Home && gone == 0 {
-            gone = (0..n).fold(0u32, |m, v| m | 1 << v);
+            gone = match motion.homed {
+                0 => (0..n).fold(0u32, |m, v| m | 1 << v),
+                homed => homed,
+            };
         }
         self.unknown |= gone;
         gone

@@ -130,6 +130,10 @@ pub enum Code {
     MachineCoordinates,
     /// G28, G30: return to a reference point through the block's axis words.
     ReturnHome,
+    /// A code the machine file names as sending axes to machine positions (Centroid's M25,
+    /// Z home; a pallet change): the axes of the mask (bit `letter - 'A'`) end at a place
+    /// nccomp does not know, as after G28.
+    MachineMove(u32),
     /// G28.1, G30.1: store the reference point; moves nothing.
     SetReference,
     /// G10, G52, G92 …: the axis words are data that set offsets, and the positions of the
@@ -183,6 +187,9 @@ pub struct MachineCodes {
     pub tcp_on: Vec<CodeName>,
     /// Codes that switch it off (M429).
     pub tcp_off: Vec<CodeName>,
+    /// Codes that send axes to machine positions, with the axes' letters (bit
+    /// `letter - 'A'`).
+    pub machine_moves: Vec<(CodeName, u32)>,
 }
 
 impl MachineCodes {
@@ -195,12 +202,18 @@ impl MachineCodes {
         } else if self.tcp_off.contains(&name) {
             Some(Code::TcpOff)
         } else {
-            None
+            self.machine_moves
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|&(_, axes)| Code::MachineMove(axes))
         }
     }
 
     pub fn is_empty(&self) -> bool {
-        self.harmless.is_empty() && self.tcp_on.is_empty() && self.tcp_off.is_empty()
+        self.harmless.is_empty()
+            && self.tcp_on.is_empty()
+            && self.tcp_off.is_empty()
+            && self.machine_moves.is_empty()
     }
 }
 
@@ -238,6 +251,11 @@ pub fn g_code(code10: i64) -> Code {
         431 | 432 => Unsupported("a dynamic tool length offset (G43.1/G43.2)"),
         434 => TcpOn(Tcp::Rotary),
         435 => TcpOn(Tcp::Vector),
+        // G47 is Haas's engraving and FANUC's tool position offset; neither is followed.
+        470 => Unsupported(
+            "text engraving on a Haas, whose strokes come from the control's font program O9876, not from this program (a shop may replace it: what it cuts is decided on the control; engrave with G1 moves), or a tool position offset on a FANUC control,",
+        ),
+        450 | 460 | 480 => Unsupported("a tool position offset (G45–G48)"),
         490 => ToolLengthOff,
         500 | 501 => TransformOff,
         510 | 511 => TransformOn("scaling or mirroring (G51)"),
@@ -369,7 +387,12 @@ mod tests {
             harmless: vec![CodeName::parse("M100").unwrap()],
             tcp_on: vec![CodeName::parse("M428").unwrap()],
             tcp_off: vec![CodeName::parse("M429").unwrap()],
+            machine_moves: vec![(CodeName::parse("M25").unwrap(), 1 << (b'Z' - b'A'))],
         };
+        assert_eq!(
+            m_code(250, &linuxcnc),
+            Code::MachineMove(1 << (b'Z' - b'A'))
+        );
         assert_eq!(m_code(4280, &linuxcnc), Code::TcpOn(Tcp::Rotary));
         assert_eq!(m_code(4290, &linuxcnc), Code::TcpOff);
         assert_eq!(m_code(1000, &linuxcnc), Code::Harmless);

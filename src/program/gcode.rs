@@ -557,6 +557,7 @@ impl Reader<'_> {
         out.arc_words = [None; 4];
         out.arc_code = None;
         out.optional = optional;
+        out.homed = 0;
         let axis_words = &mut out.axis_words;
         let mut has_words = false;
         let mut dwell = false;
@@ -576,6 +577,8 @@ impl Reader<'_> {
         let mut arc_code = None;
         let mut p_word = None;
         let mut special: Option<MoveKind> = None;
+        // The letters of the axes a machine file's code sends to machine positions.
+        let mut homed_letters = 0u32;
         let mut set_reference: Option<usize> = None;
         let mut returned: Option<usize> = None;
         // G187: its E word is the smoothing tolerance.
@@ -644,11 +647,18 @@ impl Reader<'_> {
                     continue;
                 }
                 Value::Parameter => {
-                    let text = String::from_utf8_lossy(&line.content[w.value_span.clone()]);
+                    let text = &line.content[w.value_span.clone()];
+                    let param =
+                        super::params::first_unknown(text, &state.params).unwrap_or_else(|| {
+                            format!(
+                                "{}, an indirect parameter whose value is decided at run time",
+                                String::from_utf8_lossy(text)
+                            )
+                        });
                     return Err(at(
                         t.span.start,
                         format!(
-                            "{letter} is given by a parameter, {text}, whose value is not known from the program: a system variable, or a parameter the program has not set to a constant before this block (expected a number, or a parameter set to one such as #100 = 12.5)"
+                            "{letter} is given by a parameter, {param} (expected a number, or a parameter the program sets to a constant before this block, such as #100 = 12.5)"
                         ),
                     ));
                 }
@@ -694,6 +704,18 @@ impl Reader<'_> {
                         | Code::ModalMacro
                         | Code::ExtendedWorkOffset
                         | Code::Cycle(Cycle::Other(_))) => {
+                            if let Code::DataSetting(what) = code
+                                && let Some(param) =
+                                    unknown_parameter(line.content, tokens, &state.params)
+                            {
+                                return Err(at(
+                                    t.span.start,
+                                    format!(
+                                        "{} cannot be compensated: {what} writes the controller's offsets from {param}; what the later blocks' words mean depends on it (expected numbers, or parameters the program sets to constants)",
+                                        code_text(line.content, t),
+                                    ),
+                                ));
+                            }
                             let what = match code {
                                 Code::Unsupported(what)
                                 | Code::DataSetting(what)
@@ -782,6 +804,10 @@ impl Reader<'_> {
                             special.get_or_insert(MoveKind::Machine);
                         }
                         Code::ReturnHome => special = Some(MoveKind::Home),
+                        Code::MachineMove(letters) => {
+                            special = Some(MoveKind::Home);
+                            homed_letters |= letters;
+                        }
                         Code::SetReference => set_reference = Some(i),
                         Code::Plane(plane) => state.plane = plane,
                         Code::ArcCentres { absolute } => state.arc_absolute = absolute,
@@ -809,6 +835,10 @@ impl Reader<'_> {
                             tcp_vector = false;
                         }
                         Code::TcpOff => tcp_off = true,
+                        Code::MachineMove(letters) => {
+                            special = Some(MoveKind::Home);
+                            homed_letters |= letters;
+                        }
                         Code::Unsupported(what) => {
                             return Err(refuse_code(
                                 t,
@@ -883,6 +913,11 @@ impl Reader<'_> {
             // Parameter assignments (`#1 = 5`) move nothing; a parameter used in a word is
             // caught above. Anything else may be motion we do not understand.
             if line.content[off] != b'#' && o_word.is_none() {
+                if let Some(why) =
+                    super::params::macro_statement(&line.content[off..], &state.params)
+                {
+                    return Err(at(off, why));
+                }
                 let end = tokens
                     .iter()
                     .find(|t| t.span.start == off)
@@ -959,7 +994,7 @@ impl Reader<'_> {
                 None => state.tool.ok_or_else(|| {
                     at(
                         0,
-                        "G43 without an H word and no tool selected (expected G43 Hn)".into(),
+                        "G43 without an H word takes the length of the tool in the spindle, and the program has selected none (no T word before it): which tool that is, and so where the tip is, is decided at run time (expected G43 Hn, or a T word before the G43)".into(),
                     )
                 })?,
             };
@@ -1053,6 +1088,24 @@ impl Reader<'_> {
                 ),
             ));
         }
+        if homed_letters != 0 {
+            if moves {
+                let i = axis_words[..n]
+                    .iter()
+                    .flatten()
+                    .next()
+                    .copied()
+                    .unwrap_or(0);
+                return Err(at(
+                    tokens[i].span.start,
+                    "axis words with a code the machine file names in `machine_moves` cannot be compensated: the code sends axes to machine positions, and where the words would take them is the control's rule (expected the code in a block of its own)".into(),
+                ));
+            }
+            out.homed = (0..26u8)
+                .filter(|&l| homed_letters & 1 << l != 0)
+                .filter_map(|l| words.var_of_letter[l as usize])
+                .fold(0, |m, v| m | 1 << v);
+        }
         match special {
             // G53 without axis words moves nothing.
             Some(MoveKind::Machine) if !moves => return Ok(false),
@@ -1068,6 +1121,21 @@ impl Reader<'_> {
         out.kind = MoveKind::Program;
         Ok(true)
     }
+}
+
+/// The first word of `tokens` given by a parameter nccomp does not know (known ones were
+/// replaced by their numbers), described for a message.
+fn unknown_parameter(
+    content: &[u8],
+    tokens: &[Token],
+    params: &super::params::Params,
+) -> Option<String> {
+    tokens.iter().find_map(|t| match &t.kind {
+        TokenKind::Word(w) if w.value == Value::Parameter => {
+            super::params::first_unknown(content.get(w.value_span.clone())?, params)
+        }
+        _ => None,
+    })
 }
 
 // Writing blocks in the G-code dialect: what the compensation pass asks of the dialect when

@@ -64,6 +64,9 @@ pub struct BlockMotion {
     /// The block starts with a block delete `/`: it runs only with the switch off.
     pub optional: bool,
     pub kind: MoveKind,
+    /// The variables a machine file's code (`[codes] machine_moves`) sends to machine
+    /// positions; none for G28/G30, whose axis words say which.
+    pub homed: u32,
 }
 
 impl Default for BlockMotion {
@@ -74,6 +77,7 @@ impl Default for BlockMotion {
             arc_code: None,
             optional: false,
             kind: MoveKind::Program,
+            homed: 0,
         }
     }
 }

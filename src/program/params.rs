@@ -149,6 +149,87 @@ pub fn substitute(content: &[u8], tokens: &mut [Token], params: &Params) {
     }
 }
 
+/// What parameter `name` is, for a message about a value nccomp does not know.
+pub fn describe_unknown(name: &str, params: &Params) -> String {
+    match params.get(name) {
+        Some(None) => format!(
+            "#{name}, which the program sets to an expression or another parameter, not a constant: its value is decided at run time"
+        ),
+        _ => format!(
+            "#{name}, which the program never sets (a system variable, or one set by an operator, a probing cycle or another program): its value is decided at run time"
+        ),
+    }
+}
+
+/// The first parameter in `text` (`#100`, `#<name>`) whose value is not a constant the
+/// program set, described for a message.
+pub fn first_unknown(text: &[u8], params: &Params) -> Option<String> {
+    let mut i = 0;
+    while i < text.len() {
+        if text[i] != b'#' {
+            i += 1;
+            continue;
+        }
+        let end = if text.get(i + 1) == Some(&b'<') {
+            text[i..]
+                .iter()
+                .position(|&b| b == b'>')
+                .map_or(text.len(), |p| i + p + 1)
+        } else {
+            i + 1
+                + text[i + 1..]
+                    .iter()
+                    .take_while(|b| b.is_ascii_digit())
+                    .count()
+        };
+        if let Some(name) = name_of(&text[i..end])
+            && !matches!(params.get(&name), Some(Some(_)))
+        {
+            return Some(describe_unknown(&name, params));
+        }
+        i = end.max(i + 1);
+    }
+    None
+}
+
+/// The refusal of a macro statement (`IF[…]GOTO n`, `WHILE[…]DO n`, `GOTO n`, `END n`):
+/// nccomp reads the blocks in order and does not follow jumps, and where the condition or
+/// the target reads a value decided at run time, which blocks run is decided then.
+pub fn macro_statement(text: &[u8], params: &Params) -> Option<String> {
+    let upper: Vec<u8> = text
+        .iter()
+        .take_while(|&&b| b != b'(' && b != b';')
+        .map(u8::to_ascii_uppercase)
+        .collect();
+    // A keyword, then what follows it in the language: a condition, a number, a parameter.
+    let keyword = |k: &[u8], next: &[u8]| {
+        upper.starts_with(k)
+            && upper[k.len()..]
+                .iter()
+                .find(|b| !b.is_ascii_whitespace())
+                .is_some_and(|b| next.contains(b))
+    };
+    let what = if keyword(b"IF", b"[") {
+        "a macro branch (IF … GOTO / THEN)"
+    } else if keyword(b"WHILE", b"[") {
+        "a macro loop (WHILE … DO)"
+    } else if keyword(b"GOTO", b"#0123456789") {
+        "a macro jump (GOTO)"
+    } else if keyword(b"DO", b"0123456789") || keyword(b"END", b"0123456789") {
+        "a macro loop (DO / END)"
+    } else {
+        return None;
+    };
+    Some(match first_unknown(&upper, params) {
+        Some(param) => format!(
+            "{what} cannot be compensated: which blocks run depends on {param} (expected straight-line blocks: nccomp compensates the blocks a program runs; take the branch out, or write the program for one case)"
+        ),
+        None => format!(
+            "{what} cannot be compensated: nccomp reads the blocks in order and does not follow macro jumps or loops (expected straight-line blocks; write the program without them)"
+        ),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -174,5 +255,34 @@ mod tests {
         // A reassignment replaces the value.
         assert_eq!(assign(b"#100=7", &mut p), Ok(true));
         assert_eq!(p.get("100"), Some(Some((7.0, 0))));
+    }
+
+    #[test]
+    fn macro_statements_name_what_is_decided_at_run_time() {
+        let mut p = Params::default();
+        assign(b"#100=3", &mut p).unwrap();
+        assign(b"#101=#100+1", &mut p).unwrap();
+        let m = macro_statement(b"IF[#1005EQ0]GOTO003", &p).unwrap();
+        assert!(
+            m.contains("macro branch") && m.contains("#1005, which the program never sets"),
+            "{m}"
+        );
+        let m = macro_statement(b"IF[#100EQ#175]GOTO#175", &p).unwrap();
+        assert!(m.contains("#175, which the program never sets"), "{m}");
+        let m = macro_statement(b"WHILE[#101LT5]DO1", &p).unwrap();
+        assert!(
+            m.contains("macro loop") && m.contains("#101, which the program sets to an expression"),
+            "{m}"
+        );
+        let m = macro_statement(b"GOTO 20 (skip)", &p).unwrap();
+        assert!(m.contains("does not follow macro jumps"), "{m}");
+        assert_eq!(macro_statement(b"IFX", &p), None);
+        assert!(macro_statement(b"END1", &p).unwrap().contains("loop"));
+        assert_eq!(macro_statement(b"X10", &p), None);
+        assert_eq!(
+            first_unknown(b"Z#901003 B#<depth>", &p).unwrap(),
+            describe_unknown("901003", &p)
+        );
+        assert_eq!(first_unknown(b"R#100", &p), None);
     }
 }

@@ -58,6 +58,7 @@ pub fn ac_trunnion(a_point: [f64; 3], c_point: [f64; 3]) -> Machine {
         codes: Default::default(),
         plane_solution: Default::default(),
         inch_default: false,
+        cycle_r_initial: false,
         work_offsets: None,
     }
 }
@@ -85,6 +86,7 @@ pub fn head_head(pivot: f64) -> Machine {
         codes: Default::default(),
         plane_solution: Default::default(),
         inch_default: false,
+        cycle_r_initial: false,
         work_offsets: None,
     }
 }
