@@ -343,3 +343,58 @@ fn a_direction_no_split_can_improve_does_not_split_the_move() {
     }
     assert!(worst < 1.5 * tol.position, "{worst}\n{written}");
 }
+
+#[test]
+fn a_resolution_coarser_than_the_tolerance_is_the_floor_not_a_reason_to_split() {
+    // 0.0001 in is 2.54 µm: a word rounded to it can leave its end up to 1.3 µm per axis
+    // off, more than the 1 µm tolerance, and no piece can do better than the start it is
+    // written from. Before, every such move was halved to the limit (10 blocks a move).
+    let mut machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    machine.resolution.linear = 0.00254;
+    let errors = random_errors(&machine, &mut Lcg(17));
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let mut program = String::from("G20 G90\nG0 X0 Y0 Z1. A0 C0\nG1 Z0. F10.\n");
+    let mut rng = Lcg(3);
+    for _ in 0..40 {
+        program.push_str(&format!("X{:.4} Y{:.4}\n", rng.sym(3.0), rng.sym(3.0)));
+    }
+    let mut out = Vec::new();
+    let summary = comp.run(program.as_bytes(), "inch.nc", &mut out).unwrap();
+    let written = String::from_utf8(out).unwrap();
+    assert_eq!(summary.blocks_added, 0, "{written}");
+    // The path of every written move, against the nominal one: within the tolerance plus
+    // what its written ends are left off by (their rounding).
+    let mm = |q: [f64; 5]| [q[0] * 25.4, q[1] * 25.4, q[2] * 25.4, q[3], q[4]];
+    let dev = |p: &[f64; 5], w: &[f64; 5]| {
+        let (meant, _) = kin.pose(Model::Nominal, &mm(*p), 0.0);
+        let (reached, _) = kin.pose(Model::Actual, &mm(*w), 0.0);
+        (reached.p - meant.p).norm()
+    };
+    let lerp = |a: &[f64; 5], b: &[f64; 5], s: f64| {
+        let mut q = [0.0; 5];
+        for k in 0..5 {
+            q[k] = a[k] + s * (b[k] - a[k]);
+        }
+        q
+    };
+    let (mut p0, mut w0, mut p1, mut w1) = ([0.0; 5], [0.0; 5], [0.0; 5], [0.0; 5]);
+    let mut worst: f64 = 0.0;
+    for (k, (li, lo)) in program.lines().zip(written.lines()).enumerate().skip(1) {
+        values(li, &mut p1);
+        values(lo, &mut w1);
+        if k > 2 {
+            let floor = dev(&p0, &w0) + dev(&p1, &w1);
+            for s in [0.25, 0.5, 0.75] {
+                let d = dev(&lerp(&p0, &p1, s), &lerp(&w0, &w1, s));
+                assert!(d <= floor + 1e-3, "{lo}: {:.3} µm at {s}", d * 1e3);
+                worst = worst.max(d);
+            }
+        }
+        // The ends: within the rounding to 0.0001 in.
+        assert!(dev(&p1, &w1) < 2.6e-3, "{lo}");
+        (p0, w0) = (p1, w1);
+    }
+    // Uncompensated, the same moves are several microns off: the checks can fail.
+    assert!(worst > 0.0);
+}

@@ -190,7 +190,7 @@ impl Kinematics {
                 &[0.0, 1.0],
                 options,
             );
-            fine = dev.position <= floor.position.max(tol.position)
+            fine = dev.position <= floor.position + tol.position
                 && dev.direction <= floor.direction + tol.direction;
         }
         if fine {

@@ -633,18 +633,24 @@ impl Reader<'_> {
                     ));
                 }
                 Value::Number { value, .. } => value,
+                // Words that never move a block end may keep what nccomp cannot evaluate.
+                Value::Expression | Value::Parameter
+                    if matches!(letter, 'F' | 'S' | 'P' | 'Q' | 'L' | 'E') =>
+                {
+                    continue;
+                }
                 Value::Expression => {
+                    let text = &line.content[w.value_span.clone()];
+                    let why = match super::params::first_unknown(text, &state.params) {
+                        Some(param) => format!("that reads {param}"),
+                        None => "nccomp does not evaluate (functions such as SIN, MOD, logical operators, or a value with more than 9 decimals)".to_string(),
+                    };
                     return Err(at(
                         t.span.start,
                         format!(
-                            "{letter} is given by an expression; expressions cannot be compensated (expected a number)"
+                            "{letter} is given by an expression {why} (expected a number, or + - * / over numbers and parameters the program sets to constants)"
                         ),
                     ));
-                }
-                // Words that never move a block end may keep a parameter nccomp does not
-                // know (a feed, a dwell, a peck).
-                Value::Parameter if matches!(letter, 'F' | 'S' | 'P' | 'Q' | 'L' | 'E') => {
-                    continue;
                 }
                 Value::Parameter => {
                     let text = &line.content[w.value_span.clone()];
@@ -723,7 +729,9 @@ impl Reader<'_> {
                                 | Code::Cycle(Cycle::Other(what)) => what,
                                 Code::Probe => "probing (G38.x)",
                                 Code::Skip => "a skip (probing) move (G31)",
-                                Code::MacroCall => "a macro call (G65)",
+                                Code::MacroCall => {
+                                    "a macro call (G65), which runs a program that is not in this file (its motion, a probing or measuring macro's offsets, are decided on the control),"
+                                }
                                 Code::ModalMacro => "a modal macro call (G66)",
                                 Code::ExtendedWorkOffset => "an extended work offset (G54.1)",
                                 _ => "this G code",

@@ -130,22 +130,138 @@ pub fn forget(content: &[u8], params: &mut Params) {
 pub fn substitute(content: &[u8], tokens: &mut [Token], params: &Params) {
     // Most programs assign nothing, and most lines use no parameter: then every block
     // pays one test.
-    if params.values.is_empty() || !content.contains(&b'#') {
+    let with_params = !params.values.is_empty() && content.contains(&b'#');
+    if !with_params && !content.contains(&b'[') {
         return;
     }
     for t in tokens.iter_mut() {
         let TokenKind::Word(w) = &mut t.kind else {
             continue;
         };
-        if w.value != Value::Parameter {
-            continue;
-        }
         let Some(text) = content.get(w.value_span.clone()) else {
             continue;
         };
-        if let Some(Some((value, decimals))) = name_of(text).and_then(|n| params.get(&n)) {
+        let known = match w.value {
+            Value::Parameter if with_params => name_of(text).and_then(|n| params.get(&n)).flatten(),
+            Value::Expression => evaluate(text, params),
+            _ => None,
+        };
+        if let Some((value, decimals)) = known {
             w.value = Value::Number { value, decimals };
         }
+    }
+}
+
+/// The value of a constant expression (`[180.0-0.642]`, `-[#100*2]`): `+ - * /` and
+/// brackets over numbers and parameters the program set to constants, as the control
+/// computes it; its decimals are the fewest (at most 9) that hold it. `None` for anything
+/// else: a parameter not known, a function (SIN …), MOD or a logical operator, more
+/// decimals.
+pub fn evaluate(text: &[u8], params: &Params) -> Option<(f64, u8)> {
+    let mut p = Expr {
+        text,
+        at: 0,
+        params,
+    };
+    let value = p.sum()?;
+    p.blank();
+    if p.at != text.len() || !value.is_finite() {
+        return None;
+    }
+    let decimals = (0..=9u8).find(|&d| {
+        let x = value * 10f64.powi(d.into());
+        (x - x.round()).abs() <= 1e-6
+    })?;
+    Some((value, decimals))
+}
+
+/// A recursive-descent reader of an expression's text.
+struct Expr<'t> {
+    text: &'t [u8],
+    at: usize,
+    params: &'t Params,
+}
+
+impl Expr<'_> {
+    fn blank(&mut self) {
+        while self.text.get(self.at).is_some_and(u8::is_ascii_whitespace) {
+            self.at += 1;
+        }
+    }
+
+    fn next_is(&mut self, b: u8) -> bool {
+        self.blank();
+        if self.text.get(self.at) == Some(&b) {
+            self.at += 1;
+            true
+        } else {
+            false
+        }
+    }
+
+    fn sum(&mut self) -> Option<f64> {
+        let mut v = self.product()?;
+        loop {
+            if self.next_is(b'+') {
+                v += self.product()?;
+            } else if self.next_is(b'-') {
+                v -= self.product()?;
+            } else {
+                return Some(v);
+            }
+        }
+    }
+
+    fn product(&mut self) -> Option<f64> {
+        let mut v = self.factor()?;
+        loop {
+            if self.next_is(b'*') {
+                v *= self.factor()?;
+            } else if self.next_is(b'/') {
+                let d = self.factor()?;
+                if d == 0.0 {
+                    return None;
+                }
+                v /= d;
+            } else {
+                return Some(v);
+            }
+        }
+    }
+
+    fn factor(&mut self) -> Option<f64> {
+        if self.next_is(b'-') {
+            return Some(-self.factor()?);
+        }
+        if self.next_is(b'+') {
+            return self.factor();
+        }
+        if self.next_is(b'[') {
+            let v = self.sum()?;
+            return self.next_is(b']').then_some(v);
+        }
+        self.blank();
+        let start = self.at;
+        if self.text.get(self.at) == Some(&b'#') {
+            self.at += 1;
+            if self.text.get(self.at) == Some(&b'<') {
+                self.at += self.text[self.at..].iter().position(|&b| b == b'>')? + 1;
+            } else {
+                while self.text.get(self.at).is_some_and(u8::is_ascii_digit) {
+                    self.at += 1;
+                }
+            }
+            let name = name_of(&self.text[start..self.at])?;
+            return self.params.get(&name).flatten().map(|(v, _)| v);
+        }
+        while self
+            .text
+            .get(self.at)
+            .is_some_and(|b| b.is_ascii_digit() || *b == b'.')
+        {
+            self.at += 1;
+        }
+        literal(std::str::from_utf8(&self.text[start..self.at]).ok()?).map(|(v, _)| v)
     }
 }
 
@@ -255,6 +371,25 @@ mod tests {
         // A reassignment replaces the value.
         assert_eq!(assign(b"#100=7", &mut p), Ok(true));
         assert_eq!(p.get("100"), Some(Some((7.0, 0))));
+    }
+
+    #[test]
+    fn constant_expressions_are_evaluated_and_the_rest_is_not() {
+        let mut p = Params::default();
+        assign(b"#100=2.5", &mut p).unwrap();
+        assign(b"#101=[#100]", &mut p).unwrap();
+        assert_eq!(evaluate(b"[180.0-0.642]", &p), Some((179.358, 3)));
+        assert_eq!(evaluate(b"[#100*2]", &p), Some((5.0, 0)));
+        assert_eq!(evaluate(b"-[1 + 2 * [3 - 1]]", &p), Some((-5.0, 0)));
+        assert_eq!(evaluate(b"[1/4]", &p), Some((0.25, 2)));
+        assert_eq!(evaluate(b"[#<x>+1]", &p), None);
+        assert_eq!(evaluate(b"[#101+1]", &p), None);
+        assert_eq!(evaluate(b"[499.984+#600]", &p), None);
+        assert_eq!(evaluate(b"SIN[30]", &p), None);
+        assert_eq!(evaluate(b"[1/3]", &p), None);
+        assert_eq!(evaluate(b"[1/0]", &p), None);
+        assert_eq!(evaluate(b"[5 MOD 2]", &p), None);
+        assert_eq!(evaluate(b"[1+2", &p), None);
     }
 
     #[test]
