@@ -115,3 +115,71 @@ fn lathe_programs_of_the_corpus_round_trip_and_are_compensated_or_refused_on_a_l
         lathe.len()
     );
 }
+
+/// The FANUC-family CAM programs of `../shared/corpus/cam`, each with the machine file
+/// written for it (fixtures/corpus, docs/nc-support.md): compensated, or refused only for
+/// what is decided at run time or by a program on the control. With a zero model each
+/// comes back byte for byte.
+#[test]
+fn the_fanuc_family_cam_programs_compensate_or_are_refused_for_run_time_values_only() {
+    let cam = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus/cam");
+    if !cam.is_dir() {
+        eprintln!("note: {} is not there; test skipped", cam.display());
+        return;
+    }
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/corpus");
+    // Each refusal says why its meaning is not in the program text.
+    let run_time = [
+        "decided at run time",
+        "decided on the control",
+        // Consequences of offsets set from run-time values.
+        "switches the work offset",
+        "offset variables",
+        // The jumps that close branches on run-time values (mouldmoji's `GOTO102` ends the
+        // pallet-1 branch of `IF[#1000NE0]GOTO101`).
+        "does not follow macro jumps",
+    ];
+    for (program, name, compensates) in [
+        ("makino_v22_b-c.NCD", "makino_v22", true),
+        ("freecad_centroid_metric_ref.ngc", "centroid_mill", true),
+        ("robo4x_A1.ncd", "robodrill_a", false),
+        ("mouldmoji_O80000001.nc", "mouldmoji_hmc", false),
+        ("haas_mill_o78244.nc", "haas_vf2", false),
+    ] {
+        let path = cam.join(program);
+        let src = std::fs::read(&path).unwrap();
+        let machine = machine_file::load(&fixtures.join(format!("{name}.machine.toml"))).unwrap();
+        let errors =
+            error_file::load(&fixtures.join(format!("{name}.errors.toml")), &machine).unwrap();
+        let zero = ErrorModel::zero(&machine);
+        let mut out = Vec::new();
+        Compensator::new(&machine, &zero, Options::default())
+            .unwrap()
+            .run(&src, program, &mut out)
+            .unwrap();
+        assert!(out == src, "{program}: the zero model changed it");
+        let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+        let mut out = Vec::new();
+        match comp.run(&src, program, &mut out) {
+            Ok(summary) => {
+                assert!(compensates, "{program} compensates: {summary:?}");
+                assert!(summary.words_changed > 0, "{program}");
+            }
+            Err(Error::Inputs(diags)) => {
+                assert!(!compensates, "{program}: {}", diags[0]);
+                assert!(
+                    diags[0].message.contains("decided"),
+                    "{program}: first refusal {}",
+                    diags[0]
+                );
+                for d in &diags {
+                    assert!(
+                        run_time.iter().any(|r| d.message.contains(r)),
+                        "{program}: refused for what the text decides: {d}"
+                    );
+                }
+            }
+            Err(other) => panic!("{program}: {other}"),
+        }
+    }
+}

@@ -133,3 +133,12 @@ fn head_head_plane() {
         Options::default()
     ));
 }
+
+#[test]
+fn ac_trunnion_rows_of_holes_in_g91() {
+    insta::assert_snapshot!(compensate(
+        "ac_trunnion",
+        "ac_trunnion_rows",
+        Options::default()
+    ));
+}
