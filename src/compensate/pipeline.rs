@@ -462,7 +462,7 @@ impl Pass<'_> {
                 summary.note_held(self.axis_name(v));
             }
         }
-        if state.modal.working_plane.is_some() {
+        if state.modal.working_plane.is_some_and(|p| !p.rotation_only) {
             summary.plane_blocks += 1;
             summary.plane_direction.update(ad, line);
         }

@@ -91,11 +91,17 @@ impl Pass<'_> {
     ) -> Result<(), Diagnostic> {
         let pass = self;
         let n = pass.kin.len();
+        let (name, positioning) = state
+            .modal
+            .working_plane
+            .map_or(("a tilted working plane (G68.2)", ""), |p| {
+                (p.name(), p.positioning())
+            });
         if let Some((v, i)) = cx.word_outside(n, tips) {
             return Err(cx.refuse(
                 cx.col(i),
                 format!(
-                    "{} words under a tilted working plane (G68.2) cannot be compensated: how the controller moves the tip while a rotary axis turns under a plane is not determined (expected X, Y, Z; position the rotary axes with G53.1 or before G68.2)",
+                    "{} words under {name} cannot be compensated: how the controller moves the tip while a rotary axis turns under it is not determined (expected X, Y, Z; {positioning}, or before it)",
                     pass.letter(v) as char
                 ),
             ));
@@ -107,7 +113,7 @@ impl Pass<'_> {
             return Err(cx.refuse(
                 cx.first_word_col(),
                 format!(
-                    "where axis {} stands under this tilted working plane is not known (after G28, G30, G53 or a machine move code; expected G53.1 after G68.2)",
+                    "where axis {} stands under {name} is not known (after G28, G30, G53 or a machine move code; {positioning})",
                     pass.axis_name(v)
                 ),
             ));
@@ -118,7 +124,7 @@ impl Pass<'_> {
             return Err(cx.refuse(
                 cx.first_word_col(),
                 format!(
-                    "under this tilted working plane axis {} stands where an earlier block's corrected word put it ({:.4}, programmed {:.4}), and the controller would hold it there (expected G53.1 after G68.2, which turns the rotary axes to the plane)",
+                    "under {name} axis {} stands where an earlier block's corrected word put it ({:.4}, programmed {:.4}), and the controller would hold it there ({positioning}: G53.1 turns them to a plane exactly)",
                     pass.axis_name(v),
                     state.emitted[v],
                     state.pos.nominal[v]
@@ -129,7 +135,7 @@ impl Pass<'_> {
         if !given && state.pos.unknown != 0 {
             return Err(cx.refuse(
                 cx.first_word_col(),
-                "where the tool stands in the tilted working plane before this block is not known (after G28, G30, G53 or a machine move code; expected X, Y and Z in this block)".into(),
+                format!("where the tool stands under {name} before this block is not known (after G28, G30, G53 or a machine move code; expected X, Y and Z in this block)"),
             ));
         }
         Ok(())

@@ -134,8 +134,8 @@ impl TcpMode {
 
 /// The name of the TCP mode for messages.
 fn code(state: &State) -> &'static str {
-    if state.modal.working_plane.is_some() {
-        "a tilted working plane (G68.2)"
+    if let Some(plane) = &state.modal.working_plane {
+        plane.name()
     } else if state.modal.tcp_vector {
         "G43.5"
     } else {
@@ -955,8 +955,12 @@ impl Pass<'_> {
         } else {
             "G43.4"
         };
-        let refusal = if state.modal.working_plane.is_some() {
-            "under a tilted working plane (G68.2) cannot be compensated (expected G69 before it)"
+        let refusal = if let Some(plane) = &state.modal.working_plane {
+            if plane.rotation_only {
+                "under a coordinate rotation (G68) cannot be compensated (expected G69 before it)"
+            } else {
+                "under a tilted working plane (G68.2) cannot be compensated (expected G69 before it)"
+            }
         } else if self.turning {
             "cannot be compensated while turning: the spindle turns or has not been positioned (position it with M19 or a C word first)"
         } else if state.modal.diameter {

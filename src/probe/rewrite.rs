@@ -207,6 +207,7 @@ fn classify(code: Code) -> G {
         Code::ModalMacro => Refused("a modal macro call (G66)"),
         Code::TransformOn(what) => TransformOn(what),
         Code::TiltedPlane => TransformOn("a tilted working plane (G68.2)"),
+        Code::Rotation => TransformOn("coordinate rotation (G68)"),
         Code::ToolToPlane => Lost,
         Code::TransformOff | Code::PlaneOff => TransformOff,
         _ => Harmless,

@@ -153,6 +153,8 @@ pub enum Code {
     TiltedPlane,
     /// G53.1: the rotary axes turn the tool perpendicular to the tilted working plane.
     ToolToPlane,
+    /// G68 X Y R: the program's coordinates turned about a centre in the active plane.
+    Rotation,
     /// G69: the working plane (and a G68 rotation) off.
     PlaneOff,
     /// Haas's smoothing, G187 P1…P3 with its tolerance in an E word: it rounds corners
@@ -271,7 +273,8 @@ pub fn g_code(code10: i64) -> Code {
         682 => TiltedPlane,
         683 => TransformOn("a tilted working plane along the tool (G68.3)"),
         684 => TransformOn("an incremental tilted working plane (G68.4)"),
-        680..=689 => TransformOn("coordinate rotation (G68)"),
+        680 => Rotation,
+        681..=689 => TransformOn("a coordinate conversion (G68.1)"),
         690 => PlaneOff,
         730 | 810..=860 | 880 | 890 => Cycle(self::Cycle::Drill),
         740 => Cycle(self::Cycle::Other("a tapping cycle (G74)")),

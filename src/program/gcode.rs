@@ -341,6 +341,15 @@ impl Reader<'_> {
                 ),
             ));
         }
+        if state.working_plane.is_some_and(|p| p.rotation_only) {
+            return Err(at(
+                col,
+                format!(
+                    "{} under a coordinate rotation (G68) cannot be compensated (expected G69 before it)",
+                    if set { "G68.2" } else { "G53.1" }
+                ),
+            ));
+        }
         if !set {
             if state.working_plane.is_none() {
                 return Err(at(
@@ -398,6 +407,90 @@ impl Reader<'_> {
         }
         let euler = [0, 1, 2].map(|c| out.arc_words[c].map_or(0.0, number));
         state.working_plane = Some(super::WorkingPlane::new(origin, euler));
+        Ok(false)
+    }
+
+    /// `G68 X Y R` in G17: the program's X, Y turned by R degrees about (X, Y). Refused:
+    /// another plane, G91, no centre or angle, I/J/K (FANUC's 3-D conversion), under TCP or
+    /// a tilted working plane.
+    fn rotation(
+        &self,
+        tokens: &[Token],
+        state: &mut Modal,
+        at: At<'_>,
+        out: &mut BlockMotion,
+        code: usize,
+    ) -> Result<bool, Diagnostic> {
+        let words = &self.chains[state.chain];
+        let col = tokens[code].span.start;
+        let number = |i: usize| match &tokens[i].kind {
+            TokenKind::Word(w) => w.number().unwrap_or(0.0),
+            _ => 0.0,
+        };
+        let refuse =
+            |col: usize, why: &str| Err(at(col, format!("G68 cannot be compensated: {why}")));
+        if state.tcp {
+            return refuse(
+                col,
+                "a rotation under tool-centre-point control is not followed (expected G49 before G68)",
+            );
+        }
+        if state.working_plane.is_some() {
+            return refuse(
+                col,
+                "a rotation under a tilted working plane or another rotation is not followed (expected G69 before G68)",
+            );
+        }
+        if state.plane != 0 {
+            return refuse(
+                col,
+                "only a rotation in the G17 plane (about Z) is followed",
+            );
+        }
+        if state.incremental {
+            return refuse(
+                col,
+                "in G91 its centre and angle may be increments, by the control's settings (expected G68 in G90)",
+            );
+        }
+        if let Some(i) = out.arc_words[..3].iter().flatten().next() {
+            return refuse(
+                tokens[*i].span.start,
+                "with I, J, K it is FANUC's three-dimensional coordinate conversion, which is not followed (expected G68 X Y R)",
+            );
+        }
+        let mut centre = [None; 2];
+        for (v, word) in out.axis_words.iter().enumerate().take(words.len()) {
+            let Some(i) = *word else { continue };
+            match b"XY".iter().position(|&l| l == words.letters[v]) {
+                Some(c) if words.is_linear(v) => {
+                    let x = number(i);
+                    centre[c] = Some(if state.inch { x * super::INCH } else { x });
+                }
+                _ => {
+                    return refuse(
+                        tokens[i].span.start,
+                        &format!(
+                            "{} words are not expected in G68 (expected X, Y for the centre and R for the angle)",
+                            words.letters[v] as char
+                        ),
+                    );
+                }
+            }
+        }
+        let (Some(x), Some(y)) = (centre[0], centre[1]) else {
+            return refuse(
+                col,
+                "without X and Y the centre is where the tool stands, which nccomp does not take from a G68 (expected G68 X Y R)",
+            );
+        };
+        let Some(r) = out.arc_words[3] else {
+            return refuse(
+                col,
+                "without R the angle is the control's setting (expected G68 X Y R)",
+            );
+        };
+        state.working_plane = Some(super::WorkingPlane::rotation([x, y], number(r)));
         Ok(false)
     }
 
@@ -586,6 +679,8 @@ impl Reader<'_> {
         // G68.2 (its X Y Z I J K are the plane's data) and G53.1.
         let mut plane_words: Option<usize> = None;
         let mut to_plane: Option<usize> = None;
+        // G68: a rotation of the program's coordinates.
+        let mut rotation: Option<usize> = None;
         // With a work offset table: G10 and G52 (their axis words are offset data), G54.1,
         // and whether the program zero changes.
         let offset_table = self.machine.work_offsets.is_some();
@@ -829,6 +924,7 @@ impl Reader<'_> {
                         Code::Smoothing => smoothing = true,
                         Code::TiltedPlane => plane_words = Some(i),
                         Code::ToolToPlane => to_plane = Some(i),
+                        Code::Rotation => rotation = Some(i),
                         Code::PlaneOff => state.working_plane = None,
                     }
                 }
@@ -982,6 +1078,10 @@ impl Reader<'_> {
         }
         if zero_changed {
             state.shift = state.shift_from(self.machine);
+        }
+        if let Some(code) = rotation {
+            out.arc_words = arc_words;
+            return self.rotation(tokens, state, at, out, code);
         }
         if let Some(code) = plane_words.or(to_plane) {
             out.arc_words = arc_words;

@@ -115,6 +115,8 @@ pub struct WorkingPlane {
     pub rotation: nalgebra::Rotation3<f64>,
     /// Whether G53.1 has turned the tool to the plane since it was set.
     pub tilted: bool,
+    /// G68: a rotation of the program's X, Y about Z in G17, the tool not tilted.
+    pub rotation_only: bool,
 }
 
 impl WorkingPlane {
@@ -129,6 +131,40 @@ impl WorkingPlane {
                 * Rotation3::from_axis_angle(&Vector3::x_axis(), j)
                 * Rotation3::from_axis_angle(&Vector3::z_axis(), k),
             tilted: false,
+            rotation_only: false,
+        }
+    }
+
+    /// The rotation of `G17 G68 X Y R`: the program's X, Y turned by `degrees` about the
+    /// centre (mm), counter-clockwise seen from +Z; Z as programmed.
+    pub fn rotation(centre: [f64; 2], degrees: f64) -> WorkingPlane {
+        use nalgebra::{Rotation3, Vector3};
+        let rotation = Rotation3::from_axis_angle(&Vector3::z_axis(), degrees.to_radians());
+        let c = Vector3::new(centre[0], centre[1], 0.0);
+        WorkingPlane {
+            // A word w is the part point c + R (w - c).
+            origin: c - rotation * c,
+            rotation,
+            tilted: false,
+            rotation_only: true,
+        }
+    }
+
+    /// Its name for messages.
+    pub fn name(&self) -> &'static str {
+        if self.rotation_only {
+            "a coordinate rotation (G68)"
+        } else {
+            "a tilted working plane (G68.2)"
+        }
+    }
+
+    /// Where the rotary axes are put for it, for messages.
+    pub fn positioning(&self) -> &'static str {
+        if self.rotation_only {
+            "position the rotary axes before G68"
+        } else {
+            "position the rotary axes with G53.1 after G68.2"
         }
     }
 
