@@ -91,17 +91,32 @@ impl Pass<'_> {
     ) -> Result<(), Diagnostic> {
         let pass = self;
         let n = pass.kin.len();
-        let (name, positioning) = state
-            .modal
-            .working_plane
-            .map_or(("a tilted working plane (G68.2)", ""), |p| {
-                (p.name(), p.positioning())
-            });
+        let rotation = state.modal.working_plane.is_some_and(|p| p.rotation_only);
+        // The messages' names and hints: G68.2's, or G68's.
+        let (name, this, within, words_hint, unknown_hint, held_hint) = if rotation {
+            (
+                "a coordinate rotation (G68)",
+                "this coordinate rotation",
+                "under the coordinate rotation",
+                "position the rotary axes before G68",
+                "expected the rotary axes positioned before G68",
+                "nccomp follows G68 only where the rotary axes stand at their programmed values",
+            )
+        } else {
+            (
+                "a tilted working plane (G68.2)",
+                "this tilted working plane",
+                "in the tilted working plane",
+                "position the rotary axes with G53.1 or before G68.2",
+                "expected G53.1 after G68.2",
+                "expected G53.1 after G68.2, which turns the rotary axes to the plane",
+            )
+        };
         if let Some((v, i)) = cx.word_outside(n, tips) {
             return Err(cx.refuse(
                 cx.col(i),
                 format!(
-                    "{} words under {name} cannot be compensated: how the controller moves the tip while a rotary axis turns under it is not determined (expected X, Y, Z; {positioning}, or before it)",
+                    "{} words under {name} cannot be compensated: how the controller moves the tip while a rotary axis turns under a plane is not determined (expected X, Y, Z; {words_hint})",
                     pass.letter(v) as char
                 ),
             ));
@@ -113,7 +128,7 @@ impl Pass<'_> {
             return Err(cx.refuse(
                 cx.first_word_col(),
                 format!(
-                    "where axis {} stands under {name} is not known (after G28, G30, G53 or a machine move code; {positioning})",
+                    "where axis {} stands under {this} is not known (after G28, G30, G53 or a machine move code; {unknown_hint})",
                     pass.axis_name(v)
                 ),
             ));
@@ -124,7 +139,7 @@ impl Pass<'_> {
             return Err(cx.refuse(
                 cx.first_word_col(),
                 format!(
-                    "under {name} axis {} stands where an earlier block's corrected word put it ({:.4}, programmed {:.4}), and the controller would hold it there ({positioning}: G53.1 turns them to a plane exactly)",
+                    "under {this} axis {} stands where an earlier block's corrected word put it ({:.4}, programmed {:.4}), and the controller would hold it there ({held_hint})",
                     pass.axis_name(v),
                     state.emitted[v],
                     state.pos.nominal[v]
@@ -135,7 +150,7 @@ impl Pass<'_> {
         if !given && state.pos.unknown != 0 {
             return Err(cx.refuse(
                 cx.first_word_col(),
-                format!("where the tool stands under {name} before this block is not known (after G28, G30, G53 or a machine move code; expected X, Y and Z in this block)"),
+                format!("where the tool stands {within} before this block is not known (after G28, G30, G53 or a machine move code; expected X, Y and Z in this block)"),
             ));
         }
         Ok(())

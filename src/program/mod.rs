@@ -159,15 +159,6 @@ impl WorkingPlane {
         }
     }
 
-    /// Where the rotary axes are put for it, for messages.
-    pub fn positioning(&self) -> &'static str {
-        if self.rotation_only {
-            "position the rotary axes before G68"
-        } else {
-            "position the rotary axes with G53.1 after G68.2"
-        }
-    }
-
     /// The part-frame point of plane coordinates `w` (mm).
     pub fn part(&self, w: &nalgebra::Vector3<f64>) -> nalgebra::Vector3<f64> {
         self.origin + self.rotation * w
