@@ -92,7 +92,10 @@ fn tcp_states(program: &str, vector: bool) -> Vec<State> {
     for line in program.lines() {
         let body = line.split(['(', ';']).next().unwrap();
         let words: Vec<&str> = body.split_whitespace().collect();
-        if words.iter().any(|w| ["G43.4", "G43.5", "M428"].contains(w)) {
+        if words
+            .iter()
+            .any(|w| ["G43.4", "G43.5", "M428", "G234"].contains(w))
+        {
             tcp = true;
             continue;
         }
@@ -485,4 +488,43 @@ fn g43_ends_tcp_and_tcp_notes_axes_it_assumed_at_home() {
         .map(|(a, _)| a.as_str())
         .collect();
     assert_eq!(assumed, ["X", "Y"]);
+}
+
+/// Haas's TCPC: `G234 H…` switches tool-centre-point control on, G49 off. A machine file
+/// that says so (`[codes] tcp_on = ["G234"]`) makes it a TCP program like G43.4.
+const HAAS_TCP: &str = "\
+G21 G90 G17
+T1 M6 G43 H1
+G0 X0 Y0 Z150 A0 C0
+G234 H1 (TCPC on)
+N1000 G0 X-40 Y-30 Z10 A-30 C10
+N2000 G1 X40 Y-10 Z5 A-60 C120 F600
+N3000 X30 Y40 Z0 A-45 C200
+G49
+G0 Z150
+M30
+";
+
+#[test]
+fn haas_g234_is_tool_centre_point_control_where_the_machine_file_says_so() {
+    let mut machine = machine();
+    // Unknown to nccomp without the machine file.
+    let err = compensate(&machine, HAAS_TCP).unwrap_err();
+    assert!(
+        err.contains("p.nc:4:1: G234 cannot be compensated"),
+        "{err}"
+    );
+    machine.codes.tcp_on = vec![CodeName::parse("G234").unwrap()];
+    let kin = Kinematics::new(&machine, &errors(&machine), 0).unwrap();
+    let written = compensate(&machine, HAAS_TCP).unwrap();
+    let tol = PathTolerance::default();
+    let (p0, _) = stray(&kin, L, HAAS_TCP, HAAS_TCP, false);
+    assert!(p0 > 10.0 * tol.position, "uncompensated {p0} mm");
+    let (p, d) = stray(&kin, L, HAAS_TCP, &written, false);
+    assert!(
+        p <= tol.position && d <= tol.direction,
+        "the written path strays {:.3} µm, {:.2} µrad\n{written}",
+        p * 1e3,
+        d * 1e6
+    );
 }

@@ -178,16 +178,24 @@ impl Kinematics {
             options,
         );
         let mut fine = dev.position <= tol.position && dev.direction <= tol.direction;
-        if !fine {
+        // Only a move's first piece starts from a written point (its other ends are
+        // solutions): only there can the ends leave the position off.
+        if !fine && (dev.position <= tol.position || s0 == 0.0) {
             // What the ends leave is the floor: halving cannot take the path below it. In
             // direction: a machine with fewer than five axes, a held rotary axis; in
             // position: the start as written, rounded to a resolution coarser than the
             // tolerance (0.0001 in is 2.54 µm), or left uncompensated.
+            // Where the position is off, the start alone (the end is a solution).
+            let ends: &[f64] = if dev.position <= tol.position {
+                &[0.0, 1.0]
+            } else {
+                &[0.0]
+            };
             let floor = self.deviation(
                 (&n0[..n], &n1[..n]),
                 (&c0[..n], &c1[..n]),
                 length,
-                &[0.0, 1.0],
+                ends,
                 options,
             );
             fine = dev.position <= floor.position + tol.position
