@@ -364,7 +364,7 @@ fn repeats_and_distances_nccomp_does_not_follow_are_refused() {
         ),
         (
             "G0 X0 Y0 Z30 A0 C0\nG81 X10 Y10 Z-4 R2 F100\nG91 X5 L3 M8\n",
-            "p.nc:3:11: an M or T word in a cycle block with an L repeat",
+            "p.nc:3:11: an M or T word in a cycle block with an L or K repeat",
             "M with L",
         ),
     ] {
@@ -373,5 +373,44 @@ fn repeats_and_distances_nccomp_does_not_follow_are_refused() {
             .unwrap_err();
         let err = err.to_string();
         assert!(err.contains(at), "{what}: {err}");
+    }
+}
+
+#[test]
+fn fanuc_k_repeats_holes_as_haas_l_does() {
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = shop_errors(&machine, &mut Lcg(23));
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let with_l = "G21 G90 G17\nG0 X0 Y0 Z30 A0 C0\nG98 G81 X10 Y10 Z-5 R2 F100\n\
+                  G91 X7.5 L6\nY-12.25 L3\nG90 G80\nM30\n";
+    let with_k = with_l.replace(" L", " K");
+    let run = |p: &str| {
+        let mut out = Vec::new();
+        comp.run(p.as_bytes(), "p.nc", &mut out).unwrap();
+        String::from_utf8(out).unwrap()
+    };
+    // Unrolled, the two programs are the same blocks.
+    let (l, k) = (run(with_l), run(&with_k));
+    assert!(!l.contains('L') && !k.contains('K'), "{l}\n{k}");
+    assert_eq!(l, k);
+    for (program, at) in [
+        (
+            "G0 X0 Y0 Z30 A0 C0\nG81 X10 Y10 Z-4 R2 F100\nG91 X5 L2 K2\n",
+            "p.nc:3:11: a cycle block with both L and K",
+        ),
+        (
+            "G0 X0 Y0 Z30 A0 C0\nG81 X10 Y10 Z-4 R2 I1 F100\n",
+            "p.nc:2:20: I and J words in a canned cycle are not supported",
+        ),
+        (
+            "G0 X0 Y0 Z30 A0 C0\nG81 X10 Y10 Z-4 R2 F100\nG91 X5 K0\n",
+            "p.nc:3:8: the K word of a cycle block is its number of holes",
+        ),
+    ] {
+        let err = comp
+            .run(program.as_bytes(), "p.nc", &mut Vec::new())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(at), "{err}");
     }
 }

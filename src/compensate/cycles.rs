@@ -149,22 +149,31 @@ fn insert_after_axis_words(cx: &Cx<'_, '_>, out: &mut Out<'_>, words: &[(u8, Str
 /// A cycle block's L word and its count of repeats, when it has one above 1 (L1 is one
 /// hole; in G90 the holes are all in one place, and the block is one hole's).
 pub(super) fn repeats(cx: &Cx<'_, '_>) -> Result<Option<(usize, u32)>, Diagnostic> {
-    let Some(i) = cx.word(b'L') else {
-        return Ok(None);
+    // Haas and LinuxCNC write L, FANUC K.
+    let (i, letter) = match (cx.word(b'L'), cx.word(b'K')) {
+        (Some(_), Some(k)) => {
+            return Err(cx.refuse(
+                cx.col(k),
+                "a cycle block with both L and K: each is a number of holes (Haas and LinuxCNC write L, FANUC K); expected one".into(),
+            ));
+        }
+        (Some(i), None) => (i, 'L'),
+        (None, Some(i)) => (i, 'K'),
+        (None, None) => return Ok(None),
     };
     let (value, _, _) = cx.number(i);
     let is_number = matches!(&cx.tokens[i].kind, TokenKind::Word(w) if matches!(w.value, crate::nc::Value::Number { .. }));
     if !is_number || value.fract() != 0.0 || !(1.0..=9999.0).contains(&value) {
         return Err(cx.refuse(
             cx.col(i),
-            "the L word of a cycle block is its number of holes: expected a whole number from 1 to 9999 (L0, which stores the cycle without drilling, is not supported)".into(),
+            format!("the {letter} word of a cycle block is its number of holes: expected a whole number from 1 to 9999 ({letter}0, which stores the cycle without drilling, is not supported)"),
         ));
     }
     Ok((value > 1.0).then_some((i, value as u32)))
 }
 
 impl CycleMode {
-    /// A cycle block repeated `repeats` times in G91 (Haas's L): each hole is compensated on
+    /// A cycle block repeated `repeats` times in G91 (Haas's L, FANUC's K): each hole is compensated on
     /// its own. Where every hole takes the same corrected increments the block keeps its L
     /// with them; otherwise it is unrolled: a block for each hole but the last inserted
     /// before the line (its G codes, feed and cycle words carried, as a split move's pieces
@@ -173,7 +182,7 @@ impl CycleMode {
         if let Some(i) = gcode::once_word(b.cx.tokens) {
             return Err(b.cx.refuse(
                 b.cx.col(i),
-                "an M or T word in a cycle block with an L repeat cannot be compensated: the holes' corrections differ, and unrolled the word would run once per hole (put it in a block of its own)".into(),
+                "an M or T word in a cycle block with an L or K repeat cannot be compensated: the holes' corrections differ, and unrolled the word would run once per hole (put it in a block of its own)".into(),
             ));
         }
         let mut mode = CycleMode {
@@ -202,7 +211,7 @@ impl CycleMode {
                 }
                 for (i, t) in cx.tokens.iter().enumerate() {
                     if let TokenKind::Word(w) = &t.kind
-                        && !matches!(w.letter, b'N' | b'L' | b'O')
+                        && !matches!(w.letter, b'N' | b'L' | b'K' | b'O')
                         && !cx.motion.axis_words.contains(&Some(i))
                     {
                         words.push(String::from_utf8_lossy(editor.text(i)).into_owned());
@@ -303,10 +312,11 @@ impl Mode for CycleMode {
                 ),
             ));
         }
-        if let Some(i) = cx.motion.arc_words[..3].iter().flatten().next() {
+        // K is FANUC's number of holes (`repeats`); I and J a shift at the bottom.
+        if let Some(i) = cx.motion.arc_words[..2].iter().flatten().next() {
             return Err(cx.refuse(
                 cx.col(*i),
-                "I, J and K words in a canned cycle are not supported (expected X, Y, Z and R)"
+                "I and J words in a canned cycle are not supported (expected X, Y, Z, R, and L or K for the number of holes)"
                     .into(),
             ));
         }

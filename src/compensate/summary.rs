@@ -85,7 +85,7 @@ pub struct Summary {
     pub blocks_added: usize,
     pub moves_split: usize,
     pub first_split: usize,
-    /// Cycle blocks with an L repeat written as a block per hole, the first, and the
+    /// Cycle blocks with an L or K repeat written as a block per hole, the first, and the
     /// blocks inserted for them.
     pub cycles_unrolled: usize,
     pub first_unrolled: usize,
@@ -227,7 +227,7 @@ impl Summary {
         }
         if self.cycles_unrolled > 0 {
             out.push(format!(
-                "{} with an L repeat written as a block per hole, their corrections differing (first at line {}): {} added",
+                "{} with an L or K repeat written as a block per hole, their corrections differing (first at line {}): {} added",
                 count(self.cycles_unrolled, "cycle block"),
                 self.first_unrolled,
                 count(self.holes_added, "block")
