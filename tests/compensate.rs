@@ -242,6 +242,18 @@ fn unsupported_blocks_are_errors_with_line_and_column() {
         let err = compensate(program).unwrap_err();
         assert!(err.contains(needle), "{program:?}: {err}");
     }
+    // An expression nested 400,000 deep is refused, not read down the stack.
+    let deep = format!("G1 B{}1{}\n", "[".repeat(400_000), "]".repeat(400_000));
+    let err = compensate(&deep).unwrap_err();
+    let head: String = err.chars().take(300).collect();
+    assert!(
+        err.contains("p.nc:1:4: B is given by an expression nccomp does not evaluate"),
+        "{head}"
+    );
+    assert!(err.contains("nested more than 64 deep"), "{head}");
+    // One that is constant is evaluated.
+    let out = compensate("G1 X[10+2.5] Y0 Z5 A-20 C0\n").unwrap();
+    assert!(out.starts_with("G1 X12.5"), "{out}");
 }
 
 #[test]

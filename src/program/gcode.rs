@@ -738,7 +738,7 @@ impl Reader<'_> {
                     let text = &line.content[w.value_span.clone()];
                     let why = match super::params::first_unknown(text, &state.params) {
                         Some(param) => format!("that reads {param}"),
-                        None => "nccomp does not evaluate (functions such as SIN, MOD, logical operators, or a value with more than 9 decimals)".to_string(),
+                        None => "nccomp does not evaluate (functions such as SIN, MOD, logical operators, brackets nested more than 64 deep, or a value with more than 9 decimals)".to_string(),
                     };
                     return Err(at(
                         t.span.start,

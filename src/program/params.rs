@@ -162,6 +162,7 @@ pub fn evaluate(text: &[u8], params: &Params) -> Option<(f64, u8)> {
         text,
         at: 0,
         params,
+        depth: 0,
     };
     let value = p.sum()?;
     p.blank();
@@ -180,7 +181,12 @@ struct Expr<'t> {
     text: &'t [u8],
     at: usize,
     params: &'t Params,
+    /// Brackets and signs open (a line may hold a million: the reader's stack may not).
+    depth: u32,
 }
+
+/// The most brackets and unary signs nested that [`evaluate`] reads.
+const MAX_DEPTH: u32 = 64;
 
 impl Expr<'_> {
     fn blank(&mut self) {
@@ -230,6 +236,17 @@ impl Expr<'_> {
     }
 
     fn factor(&mut self) -> Option<f64> {
+        self.depth += 1;
+        let value = if self.depth > MAX_DEPTH {
+            None
+        } else {
+            self.operand()
+        };
+        self.depth -= 1;
+        value
+    }
+
+    fn operand(&mut self) -> Option<f64> {
         if self.next_is(b'-') {
             return Some(-self.factor()?);
         }
@@ -390,6 +407,14 @@ mod tests {
         assert_eq!(evaluate(b"[1/0]", &p), None);
         assert_eq!(evaluate(b"[5 MOD 2]", &p), None);
         assert_eq!(evaluate(b"[1+2", &p), None);
+        // Nesting beyond 64 levels is not read (a line may hold a million brackets).
+        let deep = |n: usize| format!("{}1{}", "[".repeat(n), "]".repeat(n));
+        assert_eq!(evaluate(deep(60).as_bytes(), &p), Some((1.0, 0)));
+        assert_eq!(evaluate(deep(1_000_000).as_bytes(), &p), None);
+        assert_eq!(
+            evaluate(format!("{}1", "-".repeat(1_000_000)).as_bytes(), &p),
+            None
+        );
     }
 
     #[test]
