@@ -56,8 +56,8 @@ pub(super) struct CycleMode {
     frame: Option<WorkingPlane>,
     bottom_words: Vector3<f64>,
     r_words: Vector3<f64>,
-    /// The holes of an L-repeated block in G91: each one's X, Y increments (variable,
-    /// digits, exact units; none for 0); `None`: the block is one hole, written in place.
+    /// The holes of an L- or K-repeated block in G91 (see [`Hole`]); `None`: the block is
+    /// one hole, written in place.
     holes: Option<Vec<Hole>>,
 }
 
@@ -146,7 +146,7 @@ fn insert_after_axis_words(cx: &Cx<'_, '_>, out: &mut Out<'_>, words: &[(u8, Str
     out.summary.words_added += words.len();
 }
 
-/// A cycle block's L word and its count of repeats, when it has one above 1 (L1 is one
+/// A cycle block's L or K word and its number of holes, when it has one above 1 (L1 is one
 /// hole; in G90 the holes are all in one place, and the block is one hole's).
 pub(super) fn repeats(cx: &Cx<'_, '_>) -> Result<Option<(usize, u32)>, Diagnostic> {
     // Haas and LinuxCNC write L, FANUC K.
@@ -173,11 +173,11 @@ pub(super) fn repeats(cx: &Cx<'_, '_>) -> Result<Option<(usize, u32)>, Diagnosti
 }
 
 impl CycleMode {
-    /// A cycle block repeated `repeats` times in G91 (Haas's L, FANUC's K): each hole is compensated on
-    /// its own. Where every hole takes the same corrected increments the block keeps its L
-    /// with them; otherwise it is unrolled: a block for each hole but the last inserted
-    /// before the line (its G codes, feed and cycle words carried, as a split move's pieces
-    /// are), the line itself the last hole, without its L.
+    /// A cycle block repeated `repeats` times in G91 (Haas's L, FANUC's K): each hole is
+    /// compensated on its own. Where every hole takes the same corrected words the block
+    /// keeps its L or K with them; otherwise it is unrolled: a block for each hole but the
+    /// last inserted before the line (its G codes, feed and cycle words carried, as a split
+    /// move's pieces are), the line itself the last hole, without its L or K.
     pub(super) fn repeated(b: &mut Block, l_word: usize, repeats: u32) -> Result<(), Diagnostic> {
         if let Some(i) = gcode::once_word(b.cx.tokens) {
             return Err(b.cx.refuse(
