@@ -133,16 +133,9 @@ fn insert_after_axis_words(cx: &Cx<'_, '_>, out: &mut Out<'_>, words: &[(u8, Str
     if words.is_empty() {
         return;
     }
-    let end = cx
-        .motion
-        .axis_words
-        .iter()
-        .flatten()
-        .map(|&i| cx.tokens[i].span.end)
-        .max()
-        .unwrap_or(cx.line.content.len());
     let words: Vec<(u8, &str)> = words.iter().map(|(l, t)| (*l, t.as_str())).collect();
-    cx.editor(out.edits).insert_words_at(end, &words);
+    cx.editor(out.edits)
+        .insert_words_at(cx.axis_words_end(), &words);
     out.summary.words_added += words.len();
 }
 
@@ -569,15 +562,7 @@ impl Mode for CycleMode {
                     .r_written
                     .is_some_and(|old| crate::nc::number::same_text(old, r_value, d));
                 if !fits {
-                    let end = cx
-                        .motion
-                        .axis_words
-                        .iter()
-                        .flatten()
-                        .map(|&i| cx.tokens[i].span.end)
-                        .max()
-                        .unwrap_or(cx.line.content.len());
-                    editor.insert_words_at(end, &[(b'R', &text)]);
+                    editor.insert_words_at(cx.axis_words_end(), &[(b'R', &text)]);
                     out.summary.words_added += 1;
                     cycle.r_written = text.parse().ok();
                 }

@@ -66,6 +66,18 @@ impl Cx<'_, '_> {
             .unwrap_or(0)
     }
 
+    /// The byte just after the block's last axis word (the line's end when it has none):
+    /// where words that follow them are added.
+    pub fn axis_words_end(&self) -> usize {
+        self.motion
+            .axis_words
+            .iter()
+            .flatten()
+            .map(|&i| self.tokens[i].span.end)
+            .max()
+            .unwrap_or(self.line.content.len())
+    }
+
     /// The column of the block's first axis or I/J/K/R word (0 when it has none).
     pub fn first_word_col(&self) -> usize {
         self.motion

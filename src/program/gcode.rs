@@ -188,10 +188,7 @@ impl Reader<'_> {
         let mut xyz: [Option<f64>; 3] = [None; 3];
         for (v, word) in out.axis_words.iter().enumerate().take(words.len()) {
             let Some(i) = *word else { continue };
-            let value = match &tokens[i].kind {
-                TokenKind::Word(w) => w.number().unwrap_or(0.0),
-                _ => 0.0,
-            };
+            let value = word_number(tokens, i);
             match b"XYZ".iter().position(|&l| l == words.letters[v]) {
                 Some(c) if words.is_linear(v) => {
                     xyz[c] = Some(if state.inch {
@@ -302,10 +299,7 @@ impl Reader<'_> {
     ) -> Result<bool, Diagnostic> {
         let words = &self.chains[state.chain];
         let col = tokens[code].span.start;
-        let number = |i: usize| match &tokens[i].kind {
-            TokenKind::Word(w) => w.number().unwrap_or(0.0),
-            _ => 0.0,
-        };
+        let number = |i: usize| word_number(tokens, i);
         if state.tcp {
             return Err(at(
                 col,
@@ -423,10 +417,7 @@ impl Reader<'_> {
     ) -> Result<bool, Diagnostic> {
         let words = &self.chains[state.chain];
         let col = tokens[code].span.start;
-        let number = |i: usize| match &tokens[i].kind {
-            TokenKind::Word(w) => w.number().unwrap_or(0.0),
-            _ => 0.0,
-        };
+        let number = |i: usize| word_number(tokens, i);
         let refuse =
             |col: usize, why: &str| Err(at(col, format!("G68 cannot be compensated: {why}")));
         if state.tcp {
@@ -1228,6 +1219,14 @@ impl Reader<'_> {
         }
         out.kind = MoveKind::Program;
         Ok(true)
+    }
+}
+
+/// The number of the word at token `i` (0 for one the reader has refused).
+fn word_number(tokens: &[Token], i: usize) -> f64 {
+    match &tokens[i].kind {
+        TokenKind::Word(w) => w.number().unwrap_or(0.0),
+        _ => 0.0,
     }
 }
 

@@ -128,23 +128,21 @@ pub fn forget(content: &[u8], params: &mut Params) {
 /// Words whose parameter is not known stay parameters (the reader decides whether the
 /// word may be one).
 pub fn substitute(content: &[u8], tokens: &mut [Token], params: &Params) {
-    // Most programs assign nothing, and most lines use no parameter: then every block
-    // pays one test.
-    let with_params = !params.values.is_empty() && content.contains(&b'#');
-    if !with_params && !content.contains(&b'[') {
-        return;
-    }
+    // The reader has already told numbers from parameters and expressions: a block of
+    // numbers pays one look at each word's kind, not a search of its bytes.
     for t in tokens.iter_mut() {
         let TokenKind::Word(w) = &mut t.kind else {
             continue;
         };
+        if !matches!(w.value, Value::Parameter | Value::Expression) {
+            continue;
+        }
         let Some(text) = content.get(w.value_span.clone()) else {
             continue;
         };
         let known = match w.value {
-            Value::Parameter if with_params => name_of(text).and_then(|n| params.get(&n)).flatten(),
-            Value::Expression => evaluate(text, params),
-            _ => None,
+            Value::Parameter => name_of(text).and_then(|n| params.get(&n)).flatten(),
+            _ => evaluate(text, params),
         };
         if let Some((value, decimals)) = known {
             w.value = Value::Number { value, decimals };
