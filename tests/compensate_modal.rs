@@ -836,8 +836,9 @@ fn numbers_past_any_machine_are_refused_where_they_stand() {
 fn another_controls_program_is_named_not_misread() {
     for (program, what) in [
         (
-            "0 BEGIN PGM W5270 MM\n1 L X+10 Y-5 R0 FMAX\n",
-            "p.nc:1:1: this looks like a Heidenhain TNC conversational program",
+            // A TNC block in a G-code program (a TNC program starts with BEGIN PGM).
+            "G0 X0 Y0 Z50\n1 L X+10 Y-5 R0 FMAX\n",
+            "p.nc:2:1: this looks like a Heidenhain TNC conversational program",
         ),
         (
             "N10 DEF REAL _X_HOME\nN20 G0 Z=_Z_HOME\n",

@@ -58,6 +58,9 @@ pub struct Options {
     /// Threads for [`Compensator::run_stream`]: 1 runs the pass alone; 2 or more add a
     /// helper that solves blocks ahead (the output is the same).
     pub threads: usize,
+    /// The language of the programs; `None`: each program's own, from its text
+    /// ([`crate::nc::Dialect::detect`]).
+    pub dialect: Option<crate::nc::Dialect>,
 }
 
 impl Default for Options {
@@ -71,6 +74,7 @@ impl Default for Options {
             hold: Vec::new(),
             path: None,
             threads: 1,
+            dialect: None,
         }
     }
 }
@@ -91,6 +95,8 @@ pub struct Compensator<'m> {
     zero_model: bool,
     /// `Options::threads`.
     threads: usize,
+    /// `Options::dialect`.
+    dialect: Option<crate::nc::Dialect>,
     /// Passes for program zeros other than the machine file's geometry zero (work offsets,
     /// G52): the pass they shift (index into `passes`), the shift, the shifted pass. Made
     /// when a program first uses them.
@@ -158,6 +164,9 @@ struct State {
     cycle: Option<cycles::Cycle>,
     /// The last N number seen (for numbering inserted blocks).
     last_n: Option<u64>,
+    /// In a TNC program: the blocks inserted so far, by which every later block number
+    /// moves on (the control wants them consecutive).
+    renumber: u64,
     /// Where the program's words put the axes (nominal values, and which are unknown or
     /// programmed).
     pos: Positions,
@@ -220,6 +229,7 @@ impl<'m> Compensator<'m> {
             start,
             zero_model: errors.is_zero(),
             threads: options.threads,
+            dialect: options.dialect,
             shifted: (0..MAX_ZEROS).map(|_| std::sync::OnceLock::new()).collect(),
         })
     }
@@ -343,12 +353,18 @@ impl<'m> Compensator<'m> {
             return (summary, Vec::new());
         }
         let mut run = Run::new(self, trace);
+        run.program(self.dialect_of(src), src);
         for line in nc::lines(src) {
             if !run.line(&line, path, out) {
                 break;
             }
         }
         run.finish_all()
+    }
+
+    /// The dialect program `src` is read in (`src`: the program, or its start).
+    pub fn dialect_of(&self, src: &[u8]) -> nc::Dialect {
+        self.dialect.unwrap_or_else(|| nc::Dialect::detect(src))
     }
 
     /// The modal state at the program start.
@@ -367,6 +383,7 @@ impl<'m> Compensator<'m> {
             pass,
             parked: vec![None; self.machine.axes.len()],
             last_n: None,
+            renumber: 0,
             cycle: None,
             vector_nominal: [0.0, 0.0, 1.0],
             vector_written: [0.0, 0.0, 1.0],

@@ -34,6 +34,7 @@ use crate::kinematics::{MAX_AXES, Model, Solution};
 use crate::nc::edit::Editor;
 use crate::nc::number::scaled;
 use crate::nc::{self, Edit, Token, TokenKind, Value};
+use crate::program::exact::Position;
 use crate::program::{BlockMotion, MoveKind};
 
 /// A block being compensated: its line, tokens and words, and where its refusals point.
@@ -276,9 +277,67 @@ impl Pass<'_> {
                 homed => homed,
             };
         }
-        state.pos.unknown |= gone;
         state.uncertain &= !gone;
         state.unsettled &= !gone;
+        let known = self.machine_positions(cx, state);
+        state.pos.unknown |= gone & !known;
+    }
+
+    /// G53 and M91/M92 words where the machine file places program zero in machine
+    /// coordinates (`[work_offsets]`, and its `M92` reference for M92): the program
+    /// positions they reach, followed as the block's written values. The variables that
+    /// became known.
+    fn machine_positions(&self, cx: &Cx<'_, '_>, state: &mut State) -> u32 {
+        let modal = &state.modal;
+        let (Some(table), Some(_), MoveKind::Machine) =
+            (&self.machine.work_offsets, modal.shift, cx.motion.kind)
+        else {
+            return 0;
+        };
+        if modal.tcp || modal.working_plane.is_some() || cx.motion.optional {
+            return 0;
+        }
+        let reference = if cx.motion.from_m92 {
+            match table.m92 {
+                Some(r) => r,
+                None => return 0,
+            }
+        } else {
+            [0.0; 3]
+        };
+        // Program zero in machine coordinates: the offset in force, the external offset
+        // and the local shift (the geometry's offset and `shift` from it).
+        let geometry = table
+            .geometry
+            .and_then(|g| table.values.get(&g).copied())
+            .unwrap_or([0.0; 3]);
+        let shift = modal.shift.unwrap_or([0.0; 3]);
+        let mut known = 0;
+        for v in 0..self.kin.len() {
+            let Some(i) = cx.motion.axis_words[v] else {
+                continue;
+            };
+            let (value, decimals, _) = cx.number(i);
+            let unit = self.unit(v, modal);
+            let p = match b"XYZ".iter().position(|&l| l == self.letter(v)) {
+                Some(c) if self.is_linear(v) => {
+                    unit.to_mm(value) + reference[c] - geometry[c] - shift[c]
+                }
+                None if !self.is_linear(v) => value,
+                _ => continue,
+            };
+            let bit = 1u32 << v;
+            state.pos.nominal[v] = p;
+            state.pos.programmed |= bit;
+            state.emitted[v] = p;
+            state.written[v] = Position::Decimal {
+                value: unit.of_mm(p),
+                decimals: decimals.max(self.res_decimals(v, unit)),
+                unit,
+            };
+            known |= bit;
+        }
+        known
     }
 
     /// The solve of the pose the nominal machine reaches at `q` holding `hold` (the pass's

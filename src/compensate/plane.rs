@@ -59,7 +59,7 @@ impl Pass<'_> {
             ));
         }
         let q = self
-            .plane_rotaries(&plane.normal(), state)
+            .plane_rotaries(&plane, state)
             .map_err(|why| cx.refuse(col, format!("G53.1 cannot be compensated: {why}")))?;
         for v in (0..self.kin.len()).filter(|&v| rotary & (1 << v) != 0) {
             let bit = 1u32 << v;
@@ -209,9 +209,10 @@ impl Pass<'_> {
     /// current value (it cannot turn the tool).
     fn plane_rotaries(
         &self,
-        normal: &nalgebra::Vector3<f64>,
+        plane: &WorkingPlane,
         state: &State,
     ) -> Result<[f64; MAX_AXES], String> {
+        let normal = &plane.normal();
         let n = self.kin.len();
         let length = state.modal.length;
         let from = state.emitted;
@@ -248,7 +249,11 @@ impl Pass<'_> {
             for &v in &order {
                 if free & (1 << v) != 0 {
                     q[v] = from[v];
-                    continue;
+                    if plane.table_rot && self.is_table_var(v) {
+                        q[v] = self.table_rot(plane, &q, v, length);
+                    } else {
+                        continue;
+                    }
                 }
                 q[v] += 360.0 * ((from[v] - q[v]) / 360.0).round();
                 if let Some([lo, hi]) = self.travel(v) {
@@ -271,7 +276,14 @@ impl Pass<'_> {
                 found.push(q);
             }
         }
-        let wanted = match self.machine.plane_solution {
+        let rule = match plane.sequence {
+            Some(positive) => match self.master_axis() {
+                Some(axis) => PlaneSolution::Sign { axis, positive },
+                None => return Err("SEQ+/SEQ- picks the solution by the master rotary axis, and this tool chain has no rotary axis".into()),
+            },
+            None => self.machine.plane_solution,
+        };
+        let wanted = match rule {
             PlaneSolution::Shortest => None,
             PlaneSolution::Sign { axis, positive } => {
                 let Some(v) = self.kin.axes().iter().position(|&a| a == axis) else {
@@ -313,6 +325,57 @@ impl Pass<'_> {
             ),
             None => "the nominal machine cannot turn the tool perpendicular to this plane within the travel".into(),
         })
+    }
+
+    /// Heidenhain's master axis (the one SEQ± signs): the rotary axis nearest the tool
+    /// in the head, or without head axes the table axis nearest the bed (index into
+    /// [`crate::model::Machine::axes`]).
+    fn master_axis(&self) -> Option<usize> {
+        let rotary = |a: &&usize| self.machine.axes[**a].kind == AxisKind::Rotary;
+        let chain = &self.machine.tool_chains[self.chain].axes;
+        chain
+            .iter()
+            .rev()
+            .find(rotary)
+            .or_else(|| self.machine.workpiece_chain.iter().find(rotary))
+            .copied()
+    }
+
+    /// Variable `v` is an axis of the workpiece chain (it turns the table).
+    fn is_table_var(&self, v: usize) -> bool {
+        self.machine.workpiece_chain.contains(&self.kin.axes()[v])
+    }
+
+    /// TABLE ROT: the value of table variable `v`, free at `q`, at which the machine's X
+    /// axis moves the tool along the plane's X axis.
+    fn table_rot(&self, plane: &WorkingPlane, q: &[f64; MAX_AXES], v: usize, length: f64) -> f64 {
+        let n = self.kin.len();
+        let Some(x) = self.tip_var(b'X') else {
+            return q[v];
+        };
+        let along = |q: &[f64; MAX_AXES]| {
+            let mut moved = *q;
+            moved[x] += 1.0;
+            let p0 = self.kin.pose(Model::Nominal, &q[..n], length).0.p;
+            let p1 = self.kin.pose(Model::Nominal, &moved[..n], length).0.p;
+            p1 - p0
+        };
+        let target = plane.rotation * Vector3::x();
+        let normal = plane.normal();
+        let angle = |d: Vector3<f64>| normal.dot(&d.cross(&target)).atan2(d.dot(&target));
+        let phi = angle(along(q)).to_degrees();
+        let mut best = q[v];
+        let mut residual = phi.abs();
+        for value in [q[v] + phi, q[v] - phi] {
+            let mut t = *q;
+            t[v] = value;
+            let r = angle(along(&t)).to_degrees().abs();
+            if r < residual {
+                best = value;
+                residual = r;
+            }
+        }
+        best
     }
 
     /// The rotary variables, the controller's first (master) axis first: the table's

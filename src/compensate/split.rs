@@ -15,7 +15,7 @@ use crate::kinematics::path::Piece;
 use crate::nc::edit::Editor;
 use crate::nc::number::write_fixed;
 use crate::nc::{TokenKind, Value};
-use crate::program::gcode;
+use crate::program::{gcode, heidenhain};
 use std::fmt::Write;
 
 impl Pass<'_> {
@@ -77,18 +77,28 @@ impl Pass<'_> {
         let mut editor = cx.editor(out.edits);
         let style = editor.style();
         let numbers = editor.inserted_numbers(state.last_n, pieces.len() - 1);
+        let tnc = state.modal.dialect == crate::nc::Dialect::Heidenhain;
         let mut text = String::new();
         let mut s_before = 0.0;
         for (k, piece) in pieces[..pieces.len() - 1].iter().enumerate() {
             let mut words: Vec<String> = Vec::new();
-            if let Some(number) = &numbers[k] {
+            if tnc {
+                words = heidenhain::inserted_start(line.content, tokens, state.renumber, k);
+            } else if let Some(number) = &numbers[k] {
                 words.push(style.word(b'N', number));
             }
             // The block's own modal words, so the piece runs as the block would.
-            for i in gcode::carried_words(tokens, None) {
-                words.push(String::from_utf8_lossy(editor.text(i)).into_owned());
+            if !tnc {
+                for i in gcode::carried_words(tokens, None) {
+                    words.push(String::from_utf8_lossy(editor.text(i)).into_owned());
+                }
             }
             self.piece_words(&piece.q, state, &style, &mut words);
+            if tnc {
+                for i in heidenhain::carried_words(tokens) {
+                    words.push(String::from_utf8_lossy(editor.text(i)).into_owned());
+                }
+            }
             if let Some(f) = f_word
                 && let TokenKind::Word(w) = &tokens[f].kind
                 && let Value::Number { value, decimals } = w.value

@@ -97,6 +97,11 @@ impl<'c, 'm> Run<'c, 'm> {
         }
     }
 
+    /// Read program `src` (its whole text) in `dialect`.
+    pub(super) fn program(&mut self, dialect: nc::Dialect, src: &[u8]) {
+        self.state.modal.for_program(dialect, src);
+    }
+
     /// Whether a block has been refused (the output is then of no use).
     pub(super) fn failed(&self) -> bool {
         !self.errors.is_empty()
@@ -114,8 +119,7 @@ impl<'c, 'm> Run<'c, 'm> {
             self.errors.push(too_long(path, line.number, &start));
             return self.errors.len() < comp.passes[state.pass].options.max_errors;
         }
-        nc::parse_line(line.content, &mut self.tokens);
-        crate::program::params::substitute(line.content, &mut self.tokens, &state.modal.params);
+        crate::program::tokenize(&state.modal, line.content, &mut self.tokens);
         // The texts of the last line's edits hold their allocations for this line's.
         // (A few: edits made elsewhere do not take from them.)
         for edit in self.edits.drain(..) {
@@ -175,6 +179,9 @@ impl<'c, 'm> Run<'c, 'm> {
             _ => None,
         }) {
             state.last_n = Some(number);
+        }
+        if state.modal.dialect == nc::Dialect::Heidenhain {
+            renumber(line, tokens, &mut self.edits, &mut state.renumber);
         }
         nc::emit_line(line, &mut self.edits, out);
         true
@@ -316,6 +323,29 @@ impl Compensator<'_> {
     }
 }
 
+/// A TNC line's block number moved on by the blocks inserted before it (those of earlier
+/// lines, `shift`, and this line's own, which it counts into `shift`).
+fn renumber(line: &nc::Line<'_>, tokens: &[Token], edits: &mut Vec<Edit>, shift: &mut u64) {
+    let inserted: usize = edits
+        .iter()
+        .filter(|e| e.at == (0..0))
+        .map(|e| memchr::memchr_iter(b'\n', &e.text).count())
+        .sum();
+    *shift += inserted as u64;
+    if *shift == 0 {
+        return;
+    }
+    let Some(i) = crate::program::heidenhain::block_number(line.content, tokens) else {
+        return;
+    };
+    if let Some(n) = crate::program::heidenhain::number_of(line.content, tokens) {
+        edits.push(Edit {
+            at: tokens[i].span.clone(),
+            text: (n + *shift).to_string().into_bytes(),
+        });
+    }
+}
+
 /// An N word's number as `str::parse::<u64>` reads it (an optional `+`, then digits), without
 /// the UTF-8 check.
 fn block_number(text: &[u8]) -> Option<u64> {
@@ -425,6 +455,12 @@ impl<R: Read> Chunks<R> {
         }
     }
 
+    /// Hand out the last chunk again at the next [`Chunks::next`].
+    fn unread(&mut self) {
+        self.lines -= memchr::memchr_iter(b'\n', &self.buf[..self.taken]).count();
+        self.taken = 0;
+    }
+
     /// The next run of whole lines (the last one may lack its ending at the end of the
     /// input), with the number of lines before it and its offset in the stream; `None` at
     /// the end.
@@ -500,6 +536,23 @@ impl Compensator<'_> {
             return copy_through(input, input_name, output, output_name);
         }
         let mut chunks = Chunks::new(input);
+        if let Some((first, _, _)) = chunks.next().map_err(read_error)?
+            && self.dialect_of(first) != nc::Dialect::Iso
+        {
+            // A TNC program calls labels written after its end: the pass reads it whole.
+            let mut src = first.to_vec();
+            while let Some((chunk, _, _)) = chunks.next().map_err(read_error)? {
+                src.extend_from_slice(chunk);
+            }
+            let mut out = Vec::with_capacity(src.len() + src.len() / 8);
+            let (summary, refused) = self.run_all(&src, input_name, &mut out);
+            if refused.is_empty() {
+                output.write_all(&out).map_err(write_error)?;
+                output.flush().map_err(write_error)?;
+            }
+            return Self::refusing((summary, refused));
+        }
+        chunks.unread();
         let mut pass = Run::new(self, false);
         let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
         if self.threads > 1 {

@@ -33,7 +33,7 @@ use crate::nc::edit::Editor;
 use crate::nc::number::{decimals_for, same_text, write_fixed, write_fixed_value};
 use crate::program::arc::{centre_words, circle, plane_letters};
 use crate::program::exact::{Position, Unit};
-use crate::program::{WorkingPlane, gcode};
+use crate::program::{WorkingPlane, gcode, heidenhain};
 use nalgebra::Vector3;
 use std::fmt::Write;
 
@@ -169,7 +169,31 @@ impl Mode for TcpMode {
         if self.frame.is_some() {
             pass.plane_checks(cx, state, &tips)?;
             self.hold = pass.rotary_mask();
+        } else if state.modal.dialect == crate::nc::Dialect::Heidenhain {
+            // Under M128 / FUNCTION TCPM a block that does not program a rotary axis
+            // leaves it where it stands: the tip is corrected with the linear axes, and
+            // the direction error is reported.
+            self.hold = (0..n)
+                .filter(|&v| {
+                    pass.rotary_mask() & (1 << v) != 0 && cx.motion.axis_words[v].is_none()
+                })
+                .fold(0, |m, v| m | 1 << v);
         }
+        // The tip depends on every axis: after a machine move (G53, M91 …) the block must
+        // give all of it, and then every linear axis is known again.
+        let given = |v: usize| cx.motion.axis_words[v].is_some();
+        let tip_given = tips.iter().all(|&v| given(v));
+        let rotary = pass.rotary_mask();
+        let rotary_unknown = (0..n)
+            .filter(|&v| rotary & (1 << v) != 0 && state.pos.unknown & (1 << v) != 0 && !given(v))
+            .fold(0u32, |m, v| m | 1 << v);
+        if state.pos.unknown != 0 && (!tip_given || rotary_unknown != 0) {
+            return Err(cx.refuse(
+                first,
+                format!("where the tool stands before this block under {code} is not known (after a machine move: G28, G30, G53, M91, M92 or a machine move code; expected X, Y and Z and the rotary axes in this block)"),
+            ));
+        }
+        state.pos.unknown = 0;
         let vector = state.modal.tcp_vector;
         if vector && self.arc.is_some() {
             return Err(cx.refuse(
@@ -778,15 +802,18 @@ impl TcpMode {
         let mut editor = cx.editor(out.edits);
         let style = editor.style();
         let numbers = editor.inserted_numbers(state.last_n, self.pieces.len());
+        let tnc = state.modal.dialect == crate::nc::Dialect::Heidenhain;
         let ending = Editor::ending(cx.line.ending);
         let f_word = cx.word(b'F');
         let mut text = String::new();
         for (k, piece) in self.pieces.iter().enumerate() {
             let mut words: Vec<String> = Vec::new();
-            if let Some(number) = &numbers[k] {
+            if tnc {
+                words = heidenhain::inserted_start(cx.line.content, cx.tokens, state.renumber, k);
+            } else if let Some(number) = &numbers[k] {
                 words.push(style.word(b'N', number));
             }
-            if k == 0 {
+            if k == 0 && !tnc {
                 // The block's own modal words, so the pieces run as the block would.
                 for ti in gcode::carried_words(cx.tokens, cx.motion.arc_code) {
                     words.push(String::from_utf8_lossy(editor.text(ti)).into_owned());
@@ -837,6 +864,11 @@ impl TcpMode {
                     words.push(style.word(b"IJK"[c], &number));
                 }
                 state.vector_written = piece.vector;
+            }
+            if tnc {
+                for i in heidenhain::carried_words(cx.tokens) {
+                    words.push(String::from_utf8_lossy(editor.text(i)).into_owned());
+                }
             }
             if k == 0
                 && let Some(f) = f_word

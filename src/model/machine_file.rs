@@ -604,12 +604,13 @@ fn work_offsets(doc: &Doc, v: &Spanned<DeValue>) -> Result<WorkOffsets> {
             offsets.geometry = Some(code);
             continue;
         }
-        let Some(code) = WorkOffsets::code(k) else {
+        let code = WorkOffsets::code(k);
+        if code.is_none() && k != "M92" {
             return Err(doc.err(
                 key.span(),
-                format!("unknown key `{k}` in [work_offsets]: {expected} (or `geometry`)"),
+                format!("unknown key `{k}` in [work_offsets]: {expected} (or `geometry`, or `M92`, a Heidenhain control's M92 reference)"),
             ));
-        };
+        }
         let place = format!("[work_offsets] {k}");
         let entry = doc.table(
             value,
@@ -626,7 +627,12 @@ fn work_offsets(doc: &Doc, v: &Spanned<DeValue>) -> Result<WorkOffsets> {
                 )?;
             }
         }
-        offsets.values.insert(code, xyz);
+        match code {
+            Some(code) => {
+                offsets.values.insert(code, xyz);
+            }
+            None => offsets.m92 = Some(xyz),
+        }
     }
     if let Some(g) = offsets.geometry
         && !offsets.values.contains_key(&g)

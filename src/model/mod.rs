@@ -217,6 +217,9 @@ pub struct WorkOffsets {
     pub geometry: Option<i64>,
     /// Values by offset code.
     pub values: BTreeMap<i64, [f64; 3]>,
+    /// Heidenhain's M92 reference: the point, in machine coordinates, that M92 words are
+    /// given from (the machine builder's, such as the tool change position).
+    pub m92: Option<[f64; 3]>,
 }
 
 impl WorkOffsets {

@@ -16,6 +16,8 @@ pub struct Style {
     pub lowercase: bool,
     /// `" "`, or `""` in a packed block (`G1X10Y5`).
     pub separator: &'static str,
+    /// Positive numbers are written with their `+` (a block that writes `X+10.5`).
+    pub signed: bool,
 }
 
 impl Style {
@@ -31,6 +33,7 @@ impl Style {
         Style {
             lowercase,
             separator: if packed { "" } else { " " },
+            signed: false,
         }
     }
 
@@ -45,10 +48,19 @@ impl Style {
 
     /// A word `letter` + `number` in this style.
     pub fn word(&self, letter: u8, number: &str) -> String {
-        let mut w = String::with_capacity(number.len() + 1);
+        let mut w = String::with_capacity(number.len() + 2);
         w.push(self.letter(letter));
-        w.push_str(number);
+        w.push_str(&self.number(number));
         w
+    }
+
+    /// `number` as this style writes it: with its `+` in a signed block.
+    pub fn number<'n>(&self, number: &'n str) -> std::borrow::Cow<'n, str> {
+        if self.signed && !number.starts_with(['-', '+']) {
+            format!("+{number}").into()
+        } else {
+            number.into()
+        }
     }
 }
 
@@ -87,8 +99,17 @@ impl<'a> Editor<'a> {
         self.tokens
     }
 
+    /// The block's style; signed when one of its numbers is written with a `+`.
     pub fn style(&self) -> Style {
-        Style::of(self.tokens)
+        let mut style = Style::of(self.tokens);
+        style.signed = self.tokens.iter().any(|t| match &t.kind {
+            TokenKind::Word(w) => {
+                matches!(w.value, Value::Number { .. })
+                    && self.content.get(w.value_span.start) == Some(&b'+')
+            }
+            _ => false,
+        });
+        style
     }
 
     /// The word at token `i`, if it is one.
@@ -143,12 +164,19 @@ impl<'a> Editor<'a> {
         (written, true)
     }
 
-    /// Write `text` as the number of word `i` (its letter and spacing stay).
+    /// Write `text` as the number of word `i` (its letter and spacing stay, and so does
+    /// the `+` of a number written with one).
     pub fn replace_number(&mut self, i: usize, text: impl Into<Vec<u8>>) {
         if let Some(w) = self.word(i) {
+            let mut text = text.into();
+            if self.content.get(w.value_span.start) == Some(&b'+')
+                && !matches!(text.first(), Some(b'-' | b'+'))
+            {
+                text.insert(0, b'+');
+            }
             self.edits.push(Edit {
                 at: w.value_span.clone(),
-                text: text.into(),
+                text,
             });
         }
     }
@@ -185,6 +213,7 @@ impl<'a> Editor<'a> {
         } else {
             letter.to_ascii_uppercase()
         } as char;
+        let number = self.style().number(number);
         let word = format!("{letter}{}{number}", String::from_utf8_lossy(gap));
         let (at, text) = if after {
             let end = self.tokens[neighbour].span.end;
@@ -213,7 +242,8 @@ impl<'a> Editor<'a> {
             letter.to_ascii_uppercase()
         } as char;
         let end = last.map_or(self.content.len(), |i| self.tokens[i].span.end);
-        let text = format!("{}{letter}{number}", self.style().separator);
+        let style = self.style();
+        let text = format!("{}{letter}{}", style.separator, style.number(number));
         self.edits.push(Edit {
             at: end..end,
             text: text.into(),
@@ -228,7 +258,7 @@ impl<'a> Editor<'a> {
         for (letter, number) in words {
             text.push_str(style.separator);
             text.push(style.letter(*letter));
-            text.push_str(number);
+            text.push_str(&style.number(number));
         }
         if !text.is_empty() {
             self.edits.push(Edit {
@@ -335,7 +365,8 @@ mod tests {
 
     #[test]
     fn a_number_that_prints_the_same_keeps_its_text() {
-        // X+12.50 rounds to the same at 4 decimals: nothing changes, not even the sign.
+        // X+12.50 rounds to the same at 4 decimals: nothing changes; a changed number keeps
+        // its sign.
         assert_eq!(
             edited("G1 X+12.50 Y3", |e| {
                 assert_eq!(e.set_number(2, 12.50000001, 4), (12.5, false));
@@ -346,7 +377,7 @@ mod tests {
             edited("G1 X+12.50 Y3", |e| {
                 assert_eq!(e.set_number(2, 12.50012, 4), (12.5001, true));
             }),
-            "G1 X12.5001 Y3\n"
+            "G1 X+12.5001 Y3\n"
         );
     }
 

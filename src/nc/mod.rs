@@ -6,6 +6,7 @@
 //! idea: a value keeps its own text).
 
 pub mod edit;
+pub mod heidenhain;
 pub mod number;
 mod parse;
 
@@ -13,6 +14,50 @@ pub(crate) use parse::to_f64;
 pub use parse::{lines, parse_line};
 
 use std::ops::Range;
+
+/// The language a program is written in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Dialect {
+    /// ISO G-code (Fanuc, Haas, LinuxCNC, …).
+    #[default]
+    Iso,
+    /// Heidenhain TNC conversational language (Klartext, `.h` files).
+    Heidenhain,
+}
+
+impl Dialect {
+    /// The dialect of a program's text: Heidenhain when its first line that is not empty
+    /// is a numbered `BEGIN PGM` (the control writes every program so), else ISO.
+    pub fn detect(src: &[u8]) -> Dialect {
+        let first = lines(src)
+            .map(|l| l.content.trim_ascii())
+            .find(|c| !c.is_empty())
+            .unwrap_or_default();
+        let body = first.trim_ascii_start();
+        let digits = body.iter().take_while(|b| b.is_ascii_digit()).count();
+        if digits > 0 && body[digits..].trim_ascii_start().starts_with(b"BEGIN PGM") {
+            Dialect::Heidenhain
+        } else {
+            Dialect::Iso
+        }
+    }
+
+    /// Cut a line's content into tokens, in this dialect.
+    pub fn parse_line(self, content: &[u8], out: &mut Vec<Token>) {
+        match self {
+            Dialect::Iso => parse_line(content, out),
+            Dialect::Heidenhain => heidenhain::parse_line(content, out),
+        }
+    }
+
+    /// Its name, as `--dialect` takes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Dialect::Iso => "iso",
+            Dialect::Heidenhain => "heidenhain",
+        }
+    }
+}
 
 /// One line of a program: its content (without the line ending) and the ending itself.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

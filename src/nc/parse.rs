@@ -404,6 +404,11 @@ fn plain_word(content: &[u8], start: usize) -> Option<(usize, Word)> {
 /// case), without the parser combinators: its length and value. `None` for anything else,
 /// left to [`value`].
 #[inline]
+pub(super) fn plain_number_len(i: &[u8]) -> Option<(usize, Value)> {
+    plain_number(i)
+}
+
+#[inline]
 fn plain_number(i: &[u8]) -> Option<(usize, Value)> {
     let digits = |from: usize| {
         i.get(from..)

@@ -196,7 +196,7 @@ pub struct MachineCodes {
 
 impl MachineCodes {
     /// The meaning the machine file gives `name`, if it names it.
-    fn meaning(&self, name: CodeName) -> Option<Code> {
+    pub fn meaning(&self, name: CodeName) -> Option<Code> {
         if self.harmless.contains(&name) {
             Some(Code::Harmless)
         } else if self.tcp_on.contains(&name) {

@@ -143,6 +143,9 @@ impl Reader<'_> {
         at: At<'_>,
         motion: &mut BlockMotion,
     ) -> Result<bool, Diagnostic> {
+        if modal.dialect == nc::Dialect::Heidenhain {
+            return self.read_tnc(line, tokens, modal, at, motion);
+        }
         self.select(line, tokens, modal, at)
             .and_then(|()| self.read_words(line, tokens, modal, at, motion))
             .map_err(|d| match foreign_dialect(line.content) {

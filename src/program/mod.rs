@@ -20,6 +20,7 @@ pub mod axes;
 pub mod codes;
 pub mod exact;
 pub mod gcode;
+pub mod heidenhain;
 pub mod moves;
 pub mod params;
 
@@ -67,6 +68,8 @@ pub struct BlockMotion {
     /// The variables a machine file's code (`[codes] machine_moves`) sends to machine
     /// positions; none for G28/G30, whose axis words say which.
     pub homed: u32,
+    /// A machine move's words are from Heidenhain's M92 reference, not machine zero.
+    pub from_m92: bool,
 }
 
 impl Default for BlockMotion {
@@ -78,6 +81,7 @@ impl Default for BlockMotion {
             optional: false,
             kind: MoveKind::Program,
             homed: 0,
+            from_m92: false,
         }
     }
 }
@@ -117,6 +121,13 @@ pub struct WorkingPlane {
     pub tilted: bool,
     /// G68: a rotation of the program's X, Y about Z in G17, the tool not tilted.
     pub rotation_only: bool,
+    /// Heidenhain's SEQ+ / SEQ-: the solution with the master rotary axis at a positive
+    /// (or zero) angle, or a negative one; `None`: the machine file's rule.
+    pub sequence: Option<bool>,
+    /// Heidenhain's TABLE ROT: where a table axis is free to turn (its axis along the
+    /// tool), it turns so that the plane's X axis lies along the machine's X; otherwise it
+    /// stays (COORD ROT).
+    pub table_rot: bool,
 }
 
 impl WorkingPlane {
@@ -132,6 +143,25 @@ impl WorkingPlane {
                 * Rotation3::from_axis_angle(&Vector3::z_axis(), k),
             tilted: false,
             rotation_only: false,
+            sequence: None,
+            table_rot: false,
+        }
+    }
+
+    /// The plane of Heidenhain's `PLANE SPATIAL SPA SPB SPC` about the datum `origin`
+    /// (mm): rotations about the fixed X, then Y, then Z axis, in degrees.
+    pub fn spatial(origin: [f64; 3], angles: [f64; 3]) -> WorkingPlane {
+        use nalgebra::{Rotation3, Vector3};
+        let [a, b, c] = angles.map(f64::to_radians);
+        WorkingPlane {
+            origin: Vector3::from(origin),
+            rotation: Rotation3::from_axis_angle(&Vector3::z_axis(), c)
+                * Rotation3::from_axis_angle(&Vector3::y_axis(), b)
+                * Rotation3::from_axis_angle(&Vector3::x_axis(), a),
+            tilted: false,
+            rotation_only: false,
+            sequence: None,
+            table_rot: false,
         }
     }
 
@@ -147,6 +177,8 @@ impl WorkingPlane {
             rotation,
             tilted: false,
             rotation_only: true,
+            sequence: None,
+            table_rot: false,
         }
     }
 
@@ -154,6 +186,8 @@ impl WorkingPlane {
     pub fn name(&self) -> &'static str {
         if self.rotation_only {
             "a coordinate rotation (G68)"
+        } else if self.sequence.is_some() || self.table_rot {
+            "a tilted working plane (PLANE)"
         } else {
             "a tilted working plane (G68.2)"
         }
@@ -231,9 +265,41 @@ pub struct Modal {
     pub chain: usize,
     /// What a lathe's spindle does.
     pub spindle: Spindle,
+    /// The language the program is written in.
+    pub dialect: crate::nc::Dialect,
+    /// What the Heidenhain front end keeps between blocks.
+    pub tnc: Option<Box<heidenhain::Tnc>>,
+}
+
+/// Cut a line into tokens in the program's dialect, with the parameters the program has set
+/// to constants put in (see [`params::substitute`], [`heidenhain::substitute`]).
+pub fn tokenize(modal: &Modal, content: &[u8], tokens: &mut Vec<crate::nc::Token>) {
+    match modal.dialect {
+        crate::nc::Dialect::Iso => {
+            crate::nc::parse_line(content, tokens);
+            params::substitute(content, tokens, &modal.params);
+        }
+        crate::nc::Dialect::Heidenhain => {
+            crate::nc::heidenhain::parse_line(content, tokens);
+            if let Some(tnc) = &modal.tnc {
+                heidenhain::substitute(content, tokens, tnc);
+            }
+        }
+    }
 }
 
 impl Modal {
+    /// The state at the start of program `src` written in `dialect`.
+    pub fn for_program(&mut self, dialect: crate::nc::Dialect, src: &[u8]) {
+        self.dialect = dialect;
+        self.tnc = (dialect == crate::nc::Dialect::Heidenhain).then(|| {
+            Box::new(heidenhain::Tnc {
+                labels: std::sync::Arc::new(heidenhain::Labels::scan(src)),
+                ..heidenhain::Tnc::default()
+            })
+        });
+    }
+
     /// The state at the program start, in tool chain `chain`.
     pub fn start(machine: &Machine, chain: usize) -> Modal {
         let mut modal = Modal::fresh(machine, chain);
@@ -294,6 +360,8 @@ impl Modal {
             working_plane: None,
             chain,
             spindle: Spindle::Free,
+            dialect: crate::nc::Dialect::Iso,
+            tnc: None,
         }
     }
 

@@ -79,6 +79,7 @@ pub fn nominal_moves(
 ) -> crate::Result<(Vec<NominalMove>, usize)> {
     let reader = Reader::new(machine);
     let mut modal = Modal::start(machine, chain);
+    modal.for_program(crate::nc::Dialect::detect(src), src);
     let mut pos = Positions::default();
     let mut moves = Vec::new();
     let mut errors: Vec<Diagnostic> = Vec::new();
@@ -88,7 +89,7 @@ pub fn nominal_moves(
     // The tool chain the first move runs in.
     let mut followed: Option<usize> = None;
     'lines: for line in nc::lines(src) {
-        nc::parse_line(line.content, &mut tokens);
+        super::tokenize(&modal, line.content, &mut tokens);
         let at = |offset: usize, message: String| {
             Diagnostic::at(path, src, line.offset + offset, message)
         };

@@ -1,0 +1,1385 @@
+//! The Heidenhain TNC front end (conversational language, Klartext): a block's tokens
+//! ([`crate::nc::heidenhain`]) into its [`BlockMotion`], following the [`Modal`] state.
+//!
+//! What a statement means follows Heidenhain's user manuals (sources in
+//! `docs/nc-support.md`, section Heidenhain):
+//!
+//! * `L` is a straight move; `FMAX` makes it a rapid for that block only; `M91`/`M92` give
+//!   machine coordinates (the axes named end at an unknown program position, like G53);
+//!   `M128`/`FUNCTION TCPM` and `M129`/`FUNCTION RESET TCPM` switch tool-centre-point
+//!   control.
+//! * `CYCL DEF 7` shifts the datum; `PLANE SPATIAL` tilts the working plane (rotations
+//!   about the fixed X, then Y, then Z axes) about the shifted datum; `STAY` leaves the
+//!   rotary axes where they stand and the control's angles in Q120–Q122 for the program's
+//!   next `L` block, `TURN` turns them at once; `SEQ±` and `TABLE ROT` choose the
+//!   solution. `PLANE RESET` ends the plane.
+//! * `FN 0` sets a Q parameter; a Q parameter in a word is its value.
+//! * `CALL LBL` runs a label's body (up to `LBL 0`) when it moves nothing; the labels after
+//!   `M30` run only when called.
+//!
+//! Everything else that could move the machine or change a transformation is refused at
+//! its place.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use super::gcode::{At, MAX_WORD};
+use super::{BlockMotion, CodeName, Modal, Motion, MoveKind, Reader, WorkingPlane};
+use crate::diag::Diagnostic;
+use crate::kinematics::MAX_AXES;
+use crate::nc::{self, Token, TokenKind, Value, heidenhain::is_q_parameter};
+
+/// The deepest a label may call labels.
+const MAX_CALL_DEPTH: u8 = 8;
+
+/// What the TNC front end keeps between blocks, beside the [`Modal`] state.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Tnc {
+    /// Q parameters the program has set to constants, by [`q_key`].
+    pub q: HashMap<u32, f64>,
+    /// The datum shift of CYCL DEF 7 (X Y Z, mm) in the part frame.
+    pub datum: [f64; 3],
+    /// The last cycle defined (CYCL DEF), which M99 and CYCL CALL call.
+    pub cycle: Option<CycleDef>,
+    /// The line ends in `~`: the next line continues the block.
+    pub continued: bool,
+    /// The cycle whose parameters the continued lines give.
+    pub defining: Option<CycleDef>,
+    /// Q120–Q122 hold the angles of the PLANE in force, set with STAY and not yet used.
+    pub plane_angles: bool,
+    /// The program's labels.
+    pub labels: Arc<Labels>,
+    /// How deep in label calls the block being read is.
+    pub depth: u8,
+    /// The line of the M2/M30 that ended the program, and whether it was optional (`/`).
+    pub end: Option<(usize, bool)>,
+    /// The line being read.
+    pub line: usize,
+}
+
+/// A cycle definition: its number and the Q parameters of its continued lines.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CycleDef {
+    pub number: u32,
+    /// The line of `CYCL DEF`.
+    pub line: usize,
+    pub params: Vec<(u32, Param)>,
+}
+
+/// A cycle parameter's value.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Param {
+    Known(f64),
+    /// What it reads that the program never sets to a constant.
+    Unknown(String),
+}
+
+impl CycleDef {
+    /// The value of parameter Q`n`.
+    pub fn get(&self, n: u32) -> Option<&Param> {
+        self.params.iter().find(|(k, _)| *k == n).map(|(_, p)| p)
+    }
+}
+
+/// A program's labels: each label's body, the lines from the label to `LBL 0`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Labels {
+    pub bodies: HashMap<String, Body>,
+}
+
+/// A label's body: its lines (number, content) after the `LBL` line, up to `LBL 0`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Body {
+    pub line: usize,
+    pub lines: Vec<(usize, Vec<u8>)>,
+}
+
+impl Labels {
+    /// The labels of program `src`.
+    pub fn scan(src: &[u8]) -> Labels {
+        let mut tokens = Vec::new();
+        let mut starts: Vec<(String, usize, usize)> = Vec::new();
+        let all: Vec<nc::Line<'_>> = nc::lines(src).collect();
+        let mut ends = Vec::new();
+        for (k, line) in all.iter().enumerate() {
+            nc::heidenhain::parse_line(line.content, &mut tokens);
+            let sig = significant(line.content, &tokens);
+            if sig.first().map(|&i| text(line.content, &tokens[i])) != Some("LBL") {
+                continue;
+            }
+            let Some(name) = label_name(line.content, &tokens, &sig[1..]) else {
+                continue;
+            };
+            if name == "0" {
+                ends.push(k);
+            } else {
+                starts.push((name, k, line.number));
+            }
+        }
+        let mut bodies = HashMap::new();
+        for (name, k, number) in starts {
+            let end = ends.iter().copied().find(|&e| e > k).unwrap_or(all.len());
+            let lines = all[k + 1..end]
+                .iter()
+                .map(|l| (l.number, l.content.to_vec()))
+                .collect();
+            bodies.entry(name).or_insert(Body {
+                line: number,
+                lines,
+            });
+        }
+        Labels { bodies }
+    }
+}
+
+/// The name of a label as `LBL`/`CALL LBL` give it: its number, or its quoted name.
+fn label_name(content: &[u8], tokens: &[Token], sig: &[usize]) -> Option<String> {
+    let t = text(content, &tokens[*sig.first()?]);
+    if t.starts_with('"') {
+        return Some(t.trim_matches('"').to_string());
+    }
+    t.parse::<u32>().ok().map(|n| n.to_string())
+}
+
+/// The key of a Q parameter (`Q5`, `QL5`, `QR5`): its number, in its own range per kind.
+pub fn q_key(text: &[u8]) -> Option<(u32, f64)> {
+    if !is_q_parameter(text) {
+        return None;
+    }
+    let (sign, t) = match text.first() {
+        Some(b'-') => (-1.0, &text[1..]),
+        Some(b'+') => (1.0, &text[1..]),
+        _ => (1.0, text),
+    };
+    let t = &t[1..];
+    let (base, digits) = match t.first() {
+        Some(b'L') => (1_000_000, &t[1..]),
+        Some(b'R') => (2_000_000, &t[1..]),
+        _ => (0, t),
+    };
+    let n: u32 = std::str::from_utf8(digits).ok()?.parse().ok()?;
+    (n < 1_000_000).then_some((base + n, sign))
+}
+
+/// A Q parameter's name for messages.
+fn q_name(key: u32) -> String {
+    match key / 1_000_000 {
+        1 => format!("QL{}", key % 1_000_000),
+        2 => format!("QR{}", key % 1_000_000),
+        _ => format!("Q{key}"),
+    }
+}
+
+/// Replace every Q-parameter word whose value the program has set by that number.
+pub fn substitute(content: &[u8], tokens: &mut [Token], tnc: &Tnc) {
+    for t in tokens.iter_mut() {
+        let TokenKind::Word(w) = &mut t.kind else {
+            continue;
+        };
+        if w.value != Value::Parameter {
+            continue;
+        }
+        let Some((key, sign)) = content.get(w.value_span.clone()).and_then(q_key) else {
+            continue;
+        };
+        if let Some(&v) = tnc.q.get(&key) {
+            w.value = Value::Number {
+                value: sign * v,
+                decimals: decimals_of(v),
+            };
+        }
+    }
+}
+
+/// The fewest decimals (at most 9) that print `v` as it is.
+fn decimals_of(v: f64) -> u8 {
+    (0..=9u8)
+        .find(|&d| {
+            let s = 10f64.powi(i32::from(d));
+            ((v * s).round() / s - v).abs() <= v.abs() * 1e-15
+        })
+        .unwrap_or(9)
+}
+
+/// The tokens that are not spaces, comments, the block delete or the block number.
+fn significant(content: &[u8], tokens: &[Token]) -> Vec<usize> {
+    let mut sig = Vec::with_capacity(tokens.len());
+    let mut numbered = false;
+    for (i, t) in tokens.iter().enumerate() {
+        match t.kind {
+            TokenKind::Space | TokenKind::Comment | TokenKind::BlockDelete => {}
+            TokenKind::Other
+                if !numbered
+                    && sig.is_empty()
+                    && content[t.span.clone()].iter().all(u8::is_ascii_digit) =>
+            {
+                numbered = true;
+            }
+            _ => sig.push(i),
+        }
+    }
+    sig
+}
+
+/// The token of the block number, if the line has one.
+pub fn block_number(content: &[u8], tokens: &[Token]) -> Option<usize> {
+    tokens
+        .iter()
+        .position(|t| !matches!(t.kind, TokenKind::Space | TokenKind::BlockDelete))
+        .filter(|&i| {
+            tokens[i].kind == TokenKind::Other
+                && content[tokens[i].span.clone()]
+                    .iter()
+                    .all(u8::is_ascii_digit)
+        })
+}
+
+fn text<'a>(content: &'a [u8], t: &Token) -> &'a str {
+    std::str::from_utf8(&content[t.span.clone()]).unwrap_or("")
+}
+
+/// The line ends in `~`: the block goes on in the next line.
+fn continues(content: &[u8]) -> bool {
+    content.trim_ascii_end().ends_with(b"~")
+}
+
+/// What an `L` block's words ask for, beside its axis words.
+#[derive(Default)]
+struct LWords {
+    rapid: bool,
+    machine: Option<usize>,
+    tcp_on: bool,
+    tcp_off: Option<usize>,
+    end: bool,
+    call: Option<usize>,
+    /// Rotary words given by Q120–Q122 after PLANE … STAY.
+    plane_words: Vec<(usize, usize, u32)>,
+}
+
+impl Reader<'_> {
+    /// Read one TNC block (see [`Reader::read`]).
+    pub(super) fn read_tnc(
+        &self,
+        line: &nc::Line<'_>,
+        tokens: &[Token],
+        modal: &mut Modal,
+        at: At<'_>,
+        out: &mut BlockMotion,
+    ) -> Result<bool, Diagnostic> {
+        let mut tnc = modal.tnc.take().unwrap_or_default();
+        let read = self.tnc_block(line.number, line.content, tokens, modal, &mut tnc, at, out);
+        modal.tnc = Some(tnc);
+        read
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn tnc_block(
+        &self,
+        number: usize,
+        content: &[u8],
+        tokens: &[Token],
+        modal: &mut Modal,
+        tnc: &mut Tnc,
+        at: At<'_>,
+        out: &mut BlockMotion,
+    ) -> Result<bool, Diagnostic> {
+        *out = BlockMotion::default();
+        tnc.line = number;
+        out.optional = tokens.iter().any(|t| t.kind == TokenKind::BlockDelete);
+        let sig = significant(content, tokens);
+        let word = |k: usize| sig.get(k).map_or("", |&i| text(content, &tokens[i]));
+        let col = |k: usize| sig.get(k).map_or(0, |&i| tokens[i].span.start);
+        if tnc.continued {
+            tnc.continued = continues(content);
+            if let Some(def) = tnc.defining.as_mut() {
+                for &i in &sig {
+                    let t = text(content, &tokens[i]);
+                    if t == "~" {
+                        continue;
+                    }
+                    let Some((name, value)) = t.split_once('=') else {
+                        return Err(at(
+                            tokens[i].span.start,
+                            format!(
+                                "`{t}` in a cycle definition: expected a parameter such as Q200=2"
+                            ),
+                        ));
+                    };
+                    let Some((key, _)) = q_key(name.as_bytes()) else {
+                        return Err(at(
+                            tokens[i].span.start,
+                            format!(
+                                "`{name}` in a cycle definition: expected a Q parameter such as Q200"
+                            ),
+                        ));
+                    };
+                    let param = match value.trim_end_matches('~').parse::<f64>() {
+                        Ok(v) if v.is_finite() => Param::Known(v),
+                        _ => match q_key(value.trim_end_matches('~').as_bytes()) {
+                            Some((k, sign)) => match tnc.q.get(&k) {
+                                Some(v) => Param::Known(sign * v),
+                                None => Param::Unknown(q_name(k)),
+                            },
+                            None => Param::Unknown(value.to_string()),
+                        },
+                    };
+                    def.params.push((key, param));
+                }
+            }
+            if !tnc.continued
+                && let Some(def) = tnc.defining.take()
+            {
+                tnc.cycle = Some(def);
+            }
+            return Ok(false);
+        }
+        tnc.continued = continues(content);
+        if sig.is_empty() {
+            return Ok(false);
+        }
+        if let Some((end_line, optional)) = tnc.end {
+            // Past M30 only labels follow, run when called; past an optional M30 the
+            // control runs on into them with block skip on: they may set data, jump
+            // within themselves, and must move nothing.
+            if !optional || tnc.depth > 0 {
+                return Ok(false);
+            }
+            let after_end = |line: usize| {
+                format!(
+                    "line {line} follows the optional program end at line {end_line} (/ M30): with block skip on the control runs it"
+                )
+            };
+            if word(0) == "FN"
+                && matches!(
+                    word(1),
+                    "9:" | "10:" | "11:" | "12:" | "9" | "10" | "11" | "12"
+                )
+            {
+                let labels = tnc.labels.clone();
+                let target = sig
+                    .iter()
+                    .rposition(|&i| text(content, &tokens[i]) == "LBL")
+                    .and_then(|k| label_name(content, tokens, &sig[k + 1..]));
+                return match target.as_ref().and_then(|t| labels.bodies.get(t)) {
+                    Some(body) if body.line > end_line => Ok(false),
+                    _ => Err(at(
+                        col(0),
+                        format!(
+                            "{}, and it jumps to a label before that end (or one nccomp cannot find): not followed (expected the jump within the labels after M30)",
+                            after_end(number)
+                        ),
+                    )),
+                };
+            }
+            if word(0) == "LBL" {
+                return Ok(false);
+            }
+            tnc.end = None;
+            let read = self.tnc_block(number, content, tokens, modal, tnc, at, out);
+            tnc.end = Some((end_line, optional));
+            return match read {
+                Ok(true) => Err(at(
+                    col(0),
+                    format!(
+                        "{}, and this block moves the machine: not followed (expected M30 without /, or no moves after it)",
+                        after_end(number)
+                    ),
+                )),
+                other => other,
+            };
+        }
+        match word(0) {
+            "BEGIN" | "END" if word(1) == "PGM" => {
+                let unit = sig.iter().rev().map(|&i| text(content, &tokens[i])).next();
+                match unit {
+                    Some("MM") => modal.inch = false,
+                    Some("INCH") => modal.inch = true,
+                    _ => {
+                        return Err(at(
+                            col(0),
+                            "expected the program's unit (MM or INCH) at the end of BEGIN PGM / END PGM".into(),
+                        ));
+                    }
+                }
+                modal.units_stated = true;
+                if word(0) == "END" {
+                    tnc.end.get_or_insert((number, false));
+                }
+                Ok(false)
+            }
+            "BLK" | "LBL" | "STOP" => Ok(false),
+            "TOOL" => self.tool(content, tokens, &sig, modal, at).map(|()| false),
+            "L" => self.straight(content, tokens, &sig, modal, tnc, at, out),
+            "CC" => Err(at(
+                col(0),
+                "circle centres (CC) and arcs (C, CR, CT) are not compensated in TNC programs yet: expected straight moves (L)".into(),
+            )),
+            "C" | "CR" | "CT" | "CP" | "LP" | "RND" | "CHF" | "LN" | "SPL" | "CTP" | "LCT" => {
+                Err(at(
+                    col(0),
+                    format!(
+                        "{} blocks (arcs, polar moves, corners, vectors, splines) are not compensated in TNC programs yet: expected straight moves (L)",
+                        word(0)
+                    ),
+                ))
+            }
+            "CYCL" => self.cycle(number, content, tokens, &sig, modal, tnc, at, out),
+            "PLANE" => self.plane(content, tokens, &sig, modal, tnc, at, out),
+            "FUNCTION" => self.function(content, tokens, &sig, modal, at),
+            "FN" => self.fn_statement(content, tokens, &sig, tnc, at),
+            "CALL" => self.call(content, tokens, &sig, modal, tnc, at),
+            _ if matches!(&tokens[sig[0]].kind, TokenKind::Word(w) if w.letter == b'M') => {
+                // A block of M functions.
+                let mut words = LWords::default();
+                for &i in &sig {
+                    self.m_word(content, tokens, i, &mut words, modal, at)?;
+                }
+                self.l_after(modal, tnc, &words, at, out)?;
+                if let Some(i) = words.machine {
+                    return Err(at(
+                        tokens[i].span.start,
+                        "M91/M92 without axis words: expected them in an L block".into(),
+                    ));
+                }
+                if let Some(i) = words.call {
+                    return self.cycle_call(tokens[i].span.start, modal, tnc, at, out);
+                }
+                Ok(false)
+            }
+            other => Err(at(
+                col(0),
+                format!(
+                    "`{other}` is not a TNC statement nccomp reads (expected L, CYCL DEF, PLANE, FN, CALL LBL, TOOL CALL, FUNCTION TCPM, M functions, comments)"
+                ),
+            )),
+        }
+    }
+
+    /// `TOOL CALL n Z S… DL…`: the tool's length (the machine file's `[tool]` lengths by
+    /// number, else its length) plus DL.
+    fn tool(
+        &self,
+        content: &[u8],
+        tokens: &[Token],
+        sig: &[usize],
+        modal: &mut Modal,
+        at: At<'_>,
+    ) -> Result<(), Diagnostic> {
+        let word = |k: usize| sig.get(k).map_or("", |&i| text(content, &tokens[i]));
+        match word(1) {
+            "DEF" => return Ok(()),
+            "CALL" => {}
+            _ => {
+                return Err(at(
+                    tokens[sig[0]].span.start,
+                    "expected TOOL CALL or TOOL DEF".into(),
+                ));
+            }
+        }
+        if modal.tcp {
+            return Err(at(
+                tokens[sig[0]].span.start,
+                "TOOL CALL under tool-centre-point control (M128, FUNCTION TCPM) cannot be compensated (expected M129 or FUNCTION RESET TCPM before it)".into(),
+            ));
+        }
+        let mut length = self.machine.tool.length;
+        let mut number = None;
+        for &i in &sig[2..] {
+            let t = text(content, &tokens[i]);
+            if let Ok(n) = t.parse::<u32>() {
+                number = Some(n);
+                continue;
+            }
+            if let Some(dl) = t.strip_prefix("DL") {
+                let Ok(dl) = dl.parse::<f64>() else {
+                    return Err(at(
+                        tokens[i].span.start,
+                        format!("`{t}`: expected the length's delta as a number (DL+0.5)"),
+                    ));
+                };
+                length += if modal.inch { dl * super::INCH } else { dl };
+                continue;
+            }
+            if matches!(t, "X" | "Y") {
+                return Err(at(
+                    tokens[i].span.start,
+                    format!("a tool axis {t} cannot be compensated (expected Z)"),
+                ));
+            }
+        }
+        if let Some(n) = number
+            && let Some(&l) = self.machine.tool.lengths.get(&n)
+        {
+            length += l - self.machine.tool.length;
+        }
+        modal.length = length;
+        modal.tool = number;
+        Ok(())
+    }
+
+    /// An `L` block.
+    #[allow(clippy::too_many_arguments)]
+    fn straight(
+        &self,
+        content: &[u8],
+        tokens: &[Token],
+        sig: &[usize],
+        modal: &mut Modal,
+        tnc: &mut Tnc,
+        at: At<'_>,
+        out: &mut BlockMotion,
+    ) -> Result<bool, Diagnostic> {
+        let axes = &self.chains[modal.chain];
+        let mut words = LWords::default();
+        let mut k = 1;
+        while k < sig.len() {
+            let i = sig[k];
+            let t = &tokens[i];
+            let at_t = t.span.start;
+            let raw = text(content, t);
+            k += 1;
+            match &t.kind {
+                TokenKind::Word(w) if w.letter == b'M' => {
+                    self.m_word(content, tokens, i, &mut words, modal, at)?;
+                }
+                TokenKind::Word(w) if w.letter == b'F' => words.rapid = false,
+                TokenKind::Word(w) if w.letter == b'R' => {
+                    if w.value
+                        != (Value::Number {
+                            value: 0.0,
+                            decimals: 0,
+                        })
+                    {
+                        return Err(at(
+                            at_t,
+                            format!("`{raw}` in an L block: expected R0, RL or RR"),
+                        ));
+                    }
+                }
+                TokenKind::Word(w) => {
+                    let Some(v) = axes.var_of_letter[(w.letter - b'A') as usize] else {
+                        return Err(at(
+                            at_t,
+                            format!(
+                                "{} is not an axis of this machine (expected {} words)",
+                                w.letter as char,
+                                String::from_utf8_lossy(&axes.letters)
+                            ),
+                        ));
+                    };
+                    match w.value {
+                        Value::Number { value, .. }
+                            if value.is_finite() && value.abs() <= MAX_WORD => {}
+                        Value::Number { .. } => {
+                            return Err(at(
+                                at_t,
+                                format!(
+                                    "{} is out of range: expected a number within ±{MAX_WORD:e}",
+                                    w.letter as char
+                                ),
+                            ));
+                        }
+                        _ => {
+                            let q = q_key(&content[w.value_span.clone()]);
+                            match q {
+                                Some((key @ 120..=122, 1.0))
+                                    if tnc.plane_angles && !axes.is_linear(v) =>
+                                {
+                                    words.plane_words.push((i, v, key));
+                                }
+                                Some((key, _)) if (120..=122).contains(&key) => {
+                                    return Err(at(
+                                        at_t,
+                                        format!(
+                                            "{} is given by {}, the angle the control computed for a PLANE … STAY: nccomp follows it only in the L block right after that PLANE, as the rotary axis it belongs to, with a + sign",
+                                            w.letter as char,
+                                            q_name(key)
+                                        ),
+                                    ));
+                                }
+                                Some((key, _)) => {
+                                    return Err(at(
+                                        at_t,
+                                        format!(
+                                            "{} is given by {}, which the program never sets to a constant before this block: its value is decided at run time (expected a number, or FN 0: {}=… earlier)",
+                                            w.letter as char,
+                                            q_name(key),
+                                            q_name(key)
+                                        ),
+                                    ));
+                                }
+                                None => {
+                                    return Err(at(at_t, format!("`{raw}`: expected a number")));
+                                }
+                            }
+                            continue;
+                        }
+                    }
+                    if out.axis_words[v].is_some() {
+                        return Err(at(at_t, format!("{} is given twice", w.letter as char)));
+                    }
+                    out.axis_words[v] = Some(i);
+                }
+                _ => match raw {
+                    "FMAX" => words.rapid = true,
+                    "F" if sig
+                        .get(k)
+                        .is_some_and(|&j| text(content, &tokens[j]) == "MAX") =>
+                    {
+                        words.rapid = true;
+                        k += 1;
+                    }
+                    "FAUTO" | "F" => words.rapid = false,
+                    "RL" | "RR" => {
+                        return Err(at(
+                            at_t,
+                            format!(
+                                "tool radius compensation ({raw}) cannot be compensated: the path depends on the tool radius at run time (expected R0)"
+                            ),
+                        ));
+                    }
+                    _ if raw.len() > 1
+                        && raw.starts_with('I')
+                        && raw.as_bytes()[1].is_ascii_uppercase() =>
+                    {
+                        return Err(at(
+                            at_t,
+                            format!(
+                                "incremental words ({raw}) are not compensated in TNC programs yet (expected absolute coordinates)"
+                            ),
+                        ));
+                    }
+                    _ => {
+                        return Err(at(
+                            at_t,
+                            format!(
+                                "`{raw}` is not expected in an L block (expected axis words, R0, F or FMAX, M functions)"
+                            ),
+                        ));
+                    }
+                },
+            }
+        }
+        // FMAX holds for its block only; F is modal.
+        modal.rapid = words.rapid;
+        modal.motion = Some(Motion::Line);
+        self.l_after(modal, tnc, &words, at, out)?;
+        let n = axes.len();
+        let moves = out.axis_words[..n].iter().any(Option::is_some);
+        if !words.plane_words.is_empty() {
+            if let Some(i) = out.axis_words[..n].iter().flatten().next() {
+                return Err(at(
+                    tokens[*i].span.start,
+                    "axis words beside the rotary angles of a PLANE … STAY: expected the rotary axes alone (L A+Q120 C+Q122)".into(),
+                ));
+            }
+            for &(i, v, key) in &words.plane_words {
+                let expected = match axes.letters[v] {
+                    b'A' => 120,
+                    b'B' => 121,
+                    b'C' => 122,
+                    _ => 0,
+                };
+                if key != expected {
+                    return Err(at(
+                        tokens[i].span.start,
+                        format!(
+                            "{} is given by {}, which the control sets to the angle of axis {}",
+                            axes.letters[v] as char,
+                            q_name(key),
+                            ["A", "B", "C"][(key - 120) as usize]
+                        ),
+                    ));
+                }
+            }
+            let given: u32 = words.plane_words.iter().fold(0, |m, &(_, v, _)| m | 1 << v);
+            let rotary: u32 = (0..n)
+                .filter(|&v| !axes.is_linear(v))
+                .fold(0, |m, v| m | 1 << v);
+            if given != rotary {
+                return Err(at(
+                    tokens[words.plane_words[0].0].span.start,
+                    "this block positions only some of the rotary axes the PLANE turns: expected a word for each (L A+Q120 C+Q122)".into(),
+                ));
+            }
+            tnc.plane_angles = false;
+            if let Some(plane) = modal.working_plane.as_mut() {
+                plane.tilted = true;
+            }
+            out.kind = MoveKind::ToPlane;
+            out.arc_code = Some(words.plane_words[0].0);
+            return Ok(true);
+        }
+        if let Some(i) = words.call {
+            if words.machine.is_some() {
+                return Err(at(tokens[i].span.start, "M99 with M91/M92 cannot be compensated (expected the hole's position in program coordinates)".into()));
+            }
+            return Err(at(
+                tokens[i].span.start,
+                "cycle calls (M99) are not compensated in TNC programs yet".into(),
+            ));
+        }
+        if let Some(i) = words.tcp_off
+            && moves
+        {
+            return Err(at(
+                tokens[i].span.start,
+                "M129 in a block that moves cannot be compensated (expected M129 in a block of its own)".into(),
+            ));
+        }
+        if words.machine.is_some() {
+            if modal.working_plane.is_some_and(|p| !p.rotation_only) || modal.tcp {
+                return Err(at(
+                    tokens[words.machine.unwrap_or(0)].span.start,
+                    "M91/M92 under a tilted plane or tool-centre-point control cannot be compensated (expected them after PLANE RESET and M129)".into(),
+                ));
+            }
+            if !moves {
+                return Ok(false);
+            }
+            out.kind = MoveKind::Machine;
+            out.from_m92 = words
+                .machine
+                .is_some_and(|i| text(content, &tokens[i]).ends_with("92"));
+            return Ok(true);
+        }
+        if !moves {
+            return Ok(false);
+        }
+        out.kind = MoveKind::Program;
+        Ok(true)
+    }
+
+    /// One M word of a block.
+    fn m_word(
+        &self,
+        content: &[u8],
+        tokens: &[Token],
+        i: usize,
+        words: &mut LWords,
+        modal: &mut Modal,
+        at: At<'_>,
+    ) -> Result<(), Diagnostic> {
+        let t = &tokens[i];
+        let TokenKind::Word(w) = &t.kind else {
+            return Ok(());
+        };
+        let raw = text(content, t);
+        let Value::Number { value, .. } = w.value else {
+            return Err(at(
+                t.span.start,
+                format!("`{raw}`: expected an M function's number"),
+            ));
+        };
+        if value.fract() != 0.0 || !(0.0..1e4).contains(&value) {
+            return Err(at(
+                t.span.start,
+                format!("`{raw}`: expected an M function's number"),
+            ));
+        }
+        match value as u32 {
+            // Stops, spindle, coolant, tool change, feed rate modes, shortest path.
+            0 | 1 | 3 | 4 | 5 | 6 | 7 | 8 | 9 | 13 | 14 | 109 | 110 | 111 | 116 | 117 | 126
+            | 127 | 136 | 137 | 148 | 149 => {}
+            2 | 30 => words.end = true,
+            91 | 92 => words.machine = Some(i),
+            99 => words.call = Some(i),
+            128 => {
+                words.tcp_on = true;
+                modal.tcp = true;
+                modal.tcp_vector = false;
+            }
+            129 => words.tcp_off = Some(i),
+            code => {
+                let name = CodeName {
+                    letter: b'M',
+                    code10: i64::from(code) * 10,
+                };
+                match self.machine.codes.meaning(name) {
+                    Some(super::Code::Harmless) => {}
+                    _ => {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "M{code} is not an M function nccomp follows in TNC programs (expected M0–M9, M13, M14, M30, M91, M92, M99, M126–M129 …, or the code named harmless under [codes] in the machine file)"
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// What an L or M block's functions do after its words: TCP off, the program's end.
+    fn l_after(
+        &self,
+        modal: &mut Modal,
+        tnc: &mut Tnc,
+        words: &LWords,
+        _at: At<'_>,
+        _out: &mut BlockMotion,
+    ) -> Result<(), Diagnostic> {
+        if words.tcp_off.is_some() && !words.tcp_on {
+            modal.tcp = false;
+            modal.tcp_vector = false;
+        }
+        if words.end {
+            tnc.end = Some((tnc.line, _out.optional));
+        }
+        Ok(())
+    }
+
+    /// `CYCL DEF …` and `CYCL CALL`.
+    #[allow(clippy::too_many_arguments)]
+    fn cycle(
+        &self,
+        number: usize,
+        content: &[u8],
+        tokens: &[Token],
+        sig: &[usize],
+        modal: &mut Modal,
+        tnc: &mut Tnc,
+        at: At<'_>,
+        out: &mut BlockMotion,
+    ) -> Result<bool, Diagnostic> {
+        let word = |k: usize| sig.get(k).map_or("", |&i| text(content, &tokens[i]));
+        let col = |k: usize| sig.get(k).map_or(0, |&i| tokens[i].span.start);
+        if word(1) == "CALL" {
+            if sig.len() > 2 {
+                return Err(at(
+                    col(2),
+                    format!(
+                        "CYCL CALL {} cannot be compensated yet (expected CYCL CALL on its own, or M99)",
+                        word(2)
+                    ),
+                ));
+            }
+            return self.cycle_call(col(0), modal, tnc, at, out);
+        }
+        if word(1) != "DEF" {
+            return Err(at(col(1), "expected CYCL DEF or CYCL CALL".into()));
+        }
+        let id = word(2).trim_end_matches('~');
+        let (main, sub) = id.split_once('.').unwrap_or((id, ""));
+        let Ok(cycle) = main.parse::<u32>() else {
+            return Err(at(col(2), format!("`{id}`: expected a cycle number")));
+        };
+        match cycle {
+            7 => self.datum_shift(content, tokens, sig, sub, modal, tnc, at),
+            // Tolerance (32) and the dynamic tuning cycles (332, 392) move nothing and
+            // transform nothing.
+            32 | 332 | 392 => {
+                if tnc.continued {
+                    tnc.defining = None;
+                }
+                Ok(false)
+            }
+            200..=209 => {
+                let def = CycleDef {
+                    number: cycle,
+                    line: number,
+                    params: Vec::new(),
+                };
+                if tnc.continued {
+                    tnc.defining = Some(def);
+                } else {
+                    tnc.cycle = Some(def);
+                }
+                Ok(false)
+            }
+            8 | 10 | 11 | 19 | 26 | 247 => Err(at(
+                col(2),
+                format!(
+                    "CYCL DEF {cycle} ({}) is not followed by nccomp (expected PLANE for tilting, CYCL DEF 7 for datum shifts)",
+                    match cycle {
+                        8 => "mirror image",
+                        10 => "rotation",
+                        11 | 26 => "scaling",
+                        19 => "working plane",
+                        _ => "preset",
+                    }
+                ),
+            )),
+            _ => {
+                // Other machining and probing cycles: defined here, refused if called.
+                let def = CycleDef {
+                    number: cycle,
+                    line: number,
+                    params: Vec::new(),
+                };
+                if tnc.continued {
+                    tnc.defining = Some(def);
+                } else {
+                    tnc.cycle = Some(def);
+                }
+                Ok(false)
+            }
+        }
+    }
+
+    /// M99 or CYCL CALL.
+    fn cycle_call(
+        &self,
+        col: usize,
+        _modal: &mut Modal,
+        tnc: &mut Tnc,
+        at: At<'_>,
+        _out: &mut BlockMotion,
+    ) -> Result<bool, Diagnostic> {
+        let Some(def) = &tnc.cycle else {
+            return Err(at(
+                col,
+                "a cycle call, but no cycle is defined (expected CYCL DEF before it)".into(),
+            ));
+        };
+        Err(at(
+            col,
+            format!(
+                "the call of cycle {} (defined at line {}) is not compensated in TNC programs yet",
+                def.number, def.line
+            ),
+        ))
+    }
+
+    /// `CYCL DEF 7.n X… Y… Z…`: the datum shift, in the working plane in force.
+    #[allow(clippy::too_many_arguments)]
+    fn datum_shift(
+        &self,
+        content: &[u8],
+        tokens: &[Token],
+        sig: &[usize],
+        sub: &str,
+        modal: &mut Modal,
+        tnc: &mut Tnc,
+        at: At<'_>,
+    ) -> Result<bool, Diagnostic> {
+        if sub == "0" || sub.is_empty() {
+            return Ok(false);
+        }
+        for &i in &sig[3..] {
+            let t = &tokens[i];
+            let raw = text(content, t);
+            let (c, value) = match &t.kind {
+                TokenKind::Word(w) if matches!(w.letter, b'X' | b'Y' | b'Z') => match w.value {
+                    Value::Number { value, .. } if value.abs() <= MAX_WORD => {
+                        ((w.letter - b'X') as usize, value)
+                    }
+                    _ => {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "`{raw}`: the datum shift is decided at run time (expected a number, or a Q parameter set to a constant)"
+                            ),
+                        ));
+                    }
+                },
+                _ => {
+                    return Err(at(
+                        t.span.start,
+                        format!(
+                            "`{raw}` in a datum shift cannot be compensated (expected X, Y or Z with a number; incremental and rotary shifts are not followed)"
+                        ),
+                    ));
+                }
+            };
+            let value = if modal.inch {
+                value * super::INCH
+            } else {
+                value
+            };
+            match modal.working_plane.as_mut() {
+                // In a tilted plane the shift is along the plane's axes.
+                Some(plane) if !plane.rotation_only => {
+                    let mut d = plane.rotation.inverse() * plane.origin;
+                    d[c] = value;
+                    plane.origin = plane.rotation * d;
+                    tnc.datum = plane.origin.into();
+                }
+                _ => {
+                    tnc.datum[c] = value;
+                    modal.local_shift = tnc.datum;
+                    modal.shift = modal.shift_from(self.machine);
+                }
+            }
+        }
+        Ok(false)
+    }
+
+    /// `PLANE SPATIAL … STAY|TURN …` and `PLANE RESET`.
+    #[allow(clippy::too_many_arguments)]
+    fn plane(
+        &self,
+        content: &[u8],
+        tokens: &[Token],
+        sig: &[usize],
+        modal: &mut Modal,
+        tnc: &mut Tnc,
+        at: At<'_>,
+        out: &mut BlockMotion,
+    ) -> Result<bool, Diagnostic> {
+        let word = |k: usize| sig.get(k).map_or("", |&i| text(content, &tokens[i]));
+        let col = |k: usize| sig.get(k).map_or(0, |&i| tokens[i].span.start);
+        if modal.tcp {
+            return Err(at(
+                col(0),
+                "PLANE under tool-centre-point control (M128, FUNCTION TCPM) cannot be compensated (expected M129 or FUNCTION RESET TCPM before it)".into(),
+            ));
+        }
+        let mut angles = [None; 3];
+        let mut turn = None;
+        let mut sequence = None;
+        let mut table_rot = false;
+        let reset = word(1) == "RESET";
+        if !reset && word(1) != "SPATIAL" {
+            return Err(at(
+                col(1),
+                format!(
+                    "PLANE {} is not followed by nccomp yet (expected PLANE SPATIAL or PLANE RESET)",
+                    word(1)
+                ),
+            ));
+        }
+        let mut k = 2;
+        while k < sig.len() {
+            let t = word(k);
+            let c = col(k);
+            k += 1;
+            if let Some((axis, value)) = ["SPA", "SPB", "SPC"]
+                .iter()
+                .enumerate()
+                .find_map(|(a, p)| t.strip_prefix(p).map(|v| (a, v)))
+                && !reset
+            {
+                let value = match value.parse::<f64>() {
+                    Ok(v) if v.is_finite() && v.abs() <= 360.0 => v,
+                    _ => match q_key(value.as_bytes())
+                        .and_then(|(key, sign)| tnc.q.get(&key).map(|v| sign * v))
+                    {
+                        Some(v) => v,
+                        None => {
+                            return Err(at(
+                                c,
+                                format!(
+                                    "`{t}`: expected a spatial angle in degrees, or a Q parameter set to a constant"
+                                ),
+                            ));
+                        }
+                    },
+                };
+                angles[axis] = Some(value);
+                continue;
+            }
+            match t {
+                "STAY" => turn = Some(false),
+                "TURN" => turn = Some(true),
+                "MOVE" => {
+                    return Err(at(c, "PLANE … MOVE turns the rotary axes and moves the tool with them, about a point at DIST: not followed by nccomp (expected STAY or TURN)".into()));
+                }
+                "SEQ+" => sequence = Some(true),
+                "SEQ-" => sequence = Some(false),
+                "TABLE" if word(k) == "ROT" => {
+                    table_rot = true;
+                    k += 1;
+                }
+                "COORD" if word(k) == "ROT" => {
+                    table_rot = false;
+                    k += 1;
+                }
+                "FMAX" => {}
+                "F" if word(k) == "MAX" => k += 1,
+                _ if t.starts_with('F') => {}
+                _ if t.starts_with("MB") || t.starts_with("DIST") => {
+                    return Err(at(
+                        c,
+                        format!(
+                            "`{t}` (a retraction or distance of the tilting move) is not followed by nccomp (expected STAY or TURN without it)"
+                        ),
+                    ));
+                }
+                _ => {
+                    return Err(at(
+                        c,
+                        format!(
+                            "`{t}` is not expected in PLANE {} (expected SPA SPB SPC, STAY or TURN, SEQ+ or SEQ-, TABLE ROT or COORD ROT)",
+                            word(1)
+                        ),
+                    ));
+                }
+            }
+        }
+        tnc.plane_angles = false;
+        if reset {
+            if turn == Some(true) {
+                return Err(at(col(0), "PLANE RESET TURN turns the rotary axes to their home positions: not followed by nccomp (expected PLANE RESET STAY and an L block for the rotary axes)".into()));
+            }
+            modal.working_plane = None;
+            modal.local_shift = tnc.datum;
+            modal.shift = modal.shift_from(self.machine);
+            return Ok(false);
+        }
+        let [Some(a), Some(b), Some(c)] = angles else {
+            return Err(at(
+                col(0),
+                "PLANE SPATIAL needs all three spatial angles SPA, SPB and SPC".into(),
+            ));
+        };
+        let Some(turn) = turn else {
+            return Err(at(col(0), "expected STAY or TURN in PLANE SPATIAL".into()));
+        };
+        if modal.working_plane.is_some_and(|p| p.rotation_only) {
+            return Err(at(
+                col(0),
+                "PLANE under a coordinate rotation cannot be compensated".into(),
+            ));
+        }
+        let mut plane = WorkingPlane::spatial(tnc.datum, [a, b, c]);
+        plane.sequence = sequence;
+        plane.table_rot = table_rot;
+        modal.working_plane = Some(plane);
+        modal.local_shift = [0.0; 3];
+        modal.shift = modal.shift_from(self.machine);
+        if turn {
+            if let Some(p) = modal.working_plane.as_mut() {
+                p.tilted = true;
+            }
+            out.kind = MoveKind::ToPlane;
+            out.arc_code = Some(sig[0]);
+            return Ok(true);
+        }
+        tnc.plane_angles = true;
+        Ok(false)
+    }
+
+    /// `FUNCTION TCPM …` and `FUNCTION RESET TCPM`.
+    fn function(
+        &self,
+        content: &[u8],
+        tokens: &[Token],
+        sig: &[usize],
+        modal: &mut Modal,
+        at: At<'_>,
+    ) -> Result<bool, Diagnostic> {
+        let word = |k: usize| sig.get(k).map_or("", |&i| text(content, &tokens[i]));
+        let col = |k: usize| sig.get(k).map_or(0, |&i| tokens[i].span.start);
+        match (word(1), word(2)) {
+            ("RESET", "TCPM") => {
+                modal.tcp = false;
+                modal.tcp_vector = false;
+                Ok(false)
+            }
+            ("TCPM", _) => {
+                let mut k = 2;
+                while k < sig.len() {
+                    match (word(k), word(k + 1)) {
+                        ("F", "TCP" | "CONT") | ("AXIS", "POS") | ("PATHCTRL", "AXIS") => k += 2,
+                        ("AXIS", "SPAT") => {
+                            return Err(at(col(k), "FUNCTION TCPM … AXIS SPAT reads rotary words as spatial angles: not followed by nccomp (expected AXIS POS)".into()));
+                        }
+                        ("PATHCTRL", "VECTOR") => {
+                            return Err(at(col(k), "FUNCTION TCPM … PATHCTRL VECTOR moves the tool vector on a great circle: not followed by nccomp (expected PATHCTRL AXIS)".into()));
+                        }
+                        (other, _) => {
+                            return Err(at(
+                                col(k),
+                                format!(
+                                    "`{other}` is not expected in FUNCTION TCPM (expected F TCP or F CONT, AXIS POS, PATHCTRL AXIS)"
+                                ),
+                            ));
+                        }
+                    }
+                }
+                if modal.working_plane.is_some() {
+                    return Err(at(col(0), "FUNCTION TCPM under a tilted working plane cannot be compensated (expected PLANE RESET before it)".into()));
+                }
+                modal.tcp = true;
+                modal.tcp_vector = false;
+                Ok(false)
+            }
+            (other, _) => Err(at(
+                col(1),
+                format!(
+                    "FUNCTION {other} is not followed by nccomp (expected FUNCTION TCPM or FUNCTION RESET TCPM)"
+                ),
+            )),
+        }
+    }
+
+    /// `FN 0: Qn = value`; other FN functions are refused.
+    fn fn_statement(
+        &self,
+        content: &[u8],
+        tokens: &[Token],
+        sig: &[usize],
+        tnc: &mut Tnc,
+        at: At<'_>,
+    ) -> Result<bool, Diagnostic> {
+        // `FN 0: Q3=50`, `FN 0:Q3=50`, `FN 0: Q3 = +50`: the statement's text after `FN`.
+        let start = tokens[sig[0]].span.end;
+        let end = tokens
+            .iter()
+            .rposition(|t| t.kind != TokenKind::Comment && t.kind != TokenKind::Space)
+            .map_or(content.len(), |i| tokens[i].span.end);
+        let body = std::str::from_utf8(&content[start..end.max(start)]).unwrap_or("");
+        let col0 = tokens[sig[0]].span.start;
+        let compact: String = body.chars().filter(|c| !c.is_whitespace()).collect();
+        let Some((number, rest)) = compact.split_once(':') else {
+            return Err(at(col0, "expected FN n: after FN".into()));
+        };
+        if number != "0" {
+            return Err(at(
+                col0,
+                format!(
+                    "FN {number} is not followed by nccomp (only FN 0 assignments of constants are; jumps and computations decide values at run time)"
+                ),
+            ));
+        }
+        let Some((name, value)) = rest.split_once('=') else {
+            return Err(at(col0, "expected FN 0: Qn=value".into()));
+        };
+        let Some((key, _)) = q_key(name.as_bytes()).filter(|(_, s)| *s == 1.0) else {
+            return Err(at(
+                col0,
+                format!("`{name}`: expected a Q parameter to assign"),
+            ));
+        };
+        let value = match value.parse::<f64>() {
+            Ok(v) if v.is_finite() => Some(v),
+            _ => q_key(value.as_bytes()).and_then(|(k, sign)| tnc.q.get(&k).map(|v| sign * v)),
+        };
+        match value {
+            Some(v) => {
+                tnc.q.insert(key, v);
+            }
+            None => {
+                tnc.q.remove(&key);
+            }
+        }
+        Ok(false)
+    }
+
+    /// `CALL LBL n`: the label's body, which must move nothing.
+    fn call(
+        &self,
+        content: &[u8],
+        tokens: &[Token],
+        sig: &[usize],
+        modal: &mut Modal,
+        tnc: &mut Tnc,
+        at: At<'_>,
+    ) -> Result<bool, Diagnostic> {
+        let word = |k: usize| sig.get(k).map_or("", |&i| text(content, &tokens[i]));
+        let col0 = tokens[sig[0]].span.start;
+        if word(1) != "LBL" {
+            return Err(at(
+                col0,
+                format!(
+                    "CALL {} (another program) is not followed by nccomp (expected CALL LBL)",
+                    word(1)
+                ),
+            ));
+        }
+        let Some(name) = label_name(content, tokens, &sig[2..]) else {
+            return Err(at(
+                col0,
+                "expected a label number or name after CALL LBL".into(),
+            ));
+        };
+        if sig.len() > 3 {
+            return Err(at(
+                tokens[sig[3]].span.start,
+                format!(
+                    "`{}` after CALL LBL (repeats) is not followed by nccomp",
+                    word(3)
+                ),
+            ));
+        }
+        let labels = tnc.labels.clone();
+        let Some(body) = labels.bodies.get(&name) else {
+            return Err(at(
+                col0,
+                format!("CALL LBL {name}, but the program has no LBL {name}"),
+            ));
+        };
+        if tnc.depth >= MAX_CALL_DEPTH {
+            return Err(at(
+                col0,
+                format!("label calls nested more than {MAX_CALL_DEPTH} deep"),
+            ));
+        }
+        tnc.depth += 1;
+        let mut sub_tokens = Vec::new();
+        let mut motion = BlockMotion::default();
+        let mut result = Ok(false);
+        let continued = tnc.continued;
+        tnc.continued = false;
+        for (number, line) in &body.lines {
+            nc::heidenhain::parse_line(line, &mut sub_tokens);
+            substitute(line, &mut sub_tokens, tnc);
+            let inner = |_: usize, message: String| {
+                at(col0, format!("in LBL {name}, line {number}: {message}"))
+            };
+            match self.tnc_block(*number, line, &sub_tokens, modal, tnc, &inner, &mut motion) {
+                Ok(false) => {}
+                Ok(true) => {
+                    result = Err(at(
+                        col0,
+                        format!(
+                            "CALL LBL {name} runs line {number}, which moves the machine: nccomp follows only labels that move nothing (expected the moves in the main program)"
+                        ),
+                    ));
+                    break;
+                }
+                Err(d) => {
+                    result = Err(d);
+                    break;
+                }
+            }
+            if tnc.end.is_some() {
+                result = Err(at(
+                    col0,
+                    format!("CALL LBL {name} ends the program at line {number}: not followed"),
+                ));
+                break;
+            }
+        }
+        tnc.depth -= 1;
+        tnc.continued = continued;
+        result
+    }
+}
+
+/// The axis word count a TNC block may hold.
+const _: () = assert!(MAX_AXES >= 6);
+
+/// The start of the `k`-th block inserted before a line (0 the first): its block number
+/// (the line's own, moved on by the `shift` blocks inserted before it in the program and by
+/// `k`) and `L`.
+pub fn inserted_start(content: &[u8], tokens: &[Token], shift: u64, k: usize) -> Vec<String> {
+    let mut words = Vec::with_capacity(2);
+    if let Some(n) = number_of(content, tokens) {
+        words.push((n + shift + k as u64).to_string());
+    }
+    words.push("L".to_string());
+    words
+}
+
+/// The line's block number, if it has one.
+pub fn number_of(content: &[u8], tokens: &[Token]) -> Option<u64> {
+    let i = block_number(content, tokens)?;
+    std::str::from_utf8(&content[tokens[i].span.clone()])
+        .ok()?
+        .parse()
+        .ok()
+}
+
+/// The words a block inserted before an L block repeats: its radius compensation (R0).
+pub fn carried_words(tokens: &[Token]) -> impl Iterator<Item = usize> + '_ {
+    tokens
+        .iter()
+        .enumerate()
+        .filter_map(|(i, t)| match &t.kind {
+            TokenKind::Word(w) if w.letter == b'R' => Some(i),
+            _ => None,
+        })
+}
