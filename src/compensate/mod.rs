@@ -17,6 +17,7 @@ mod split;
 mod stream;
 mod summary;
 mod tcp;
+mod tnc_cycles;
 mod writing;
 
 pub use summary::{Extreme, Sample, Summary};

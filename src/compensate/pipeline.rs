@@ -249,6 +249,9 @@ impl Pass<'_> {
             out,
         };
         match cx.motion.kind {
+            MoveKind::Cycle if b.state.modal.dialect == nc::Dialect::Heidenhain => {
+                run(&mut super::tnc_cycles::TncCycleMode::default(), &mut b)
+            }
             MoveKind::Cycle => match super::cycles::repeats(cx)? {
                 Some((l_word, repeats)) if b.state.modal.incremental => {
                     super::cycles::CycleMode::repeated(&mut b, l_word, repeats)

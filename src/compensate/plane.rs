@@ -31,7 +31,7 @@ impl Pass<'_> {
         &self,
         cx: &Cx<'_, '_>,
         state: &mut State,
-        _out: &mut Out<'_>,
+        out: &mut Out<'_>,
     ) -> Result<(), Diagnostic> {
         let col = cx.motion.arc_code.map_or(0, |i| cx.col(i));
         let Some(plane) = state.modal.working_plane else {
@@ -61,6 +61,13 @@ impl Pass<'_> {
         let q = self
             .plane_rotaries(&plane, state)
             .map_err(|why| cx.refuse(col, format!("G53.1 cannot be compensated: {why}")))?;
+        out.summary.plane_positions.push((
+            cx.line.number,
+            (0..self.kin.len())
+                .filter(|&v| rotary & (1 << v) != 0)
+                .map(|v| (self.axis_name(v).to_string(), q[v]))
+                .collect(),
+        ));
         for v in (0..self.kin.len()).filter(|&v| rotary & (1 << v) != 0) {
             let bit = 1u32 << v;
             state.pos.nominal[v] = q[v];

@@ -326,11 +326,17 @@ impl Compensator<'_> {
 /// A TNC line's block number moved on by the blocks inserted before it (those of earlier
 /// lines, `shift`, and this line's own, which it counts into `shift`).
 fn renumber(line: &nc::Line<'_>, tokens: &[Token], edits: &mut Vec<Edit>, shift: &mut u64) {
+    // Blocks, not lines: a cycle definition runs on over lines without numbers.
     let inserted: usize = edits
         .iter()
         .filter(|e| e.at == (0..0))
-        .map(|e| memchr::memchr_iter(b'\n', &e.text).count())
-        .sum();
+        .flat_map(|e| e.text.split(|&b| b == b'\n'))
+        .filter(|l| {
+            let l = l.trim_ascii_start();
+            let l = l.strip_prefix(b"/").unwrap_or(l);
+            l.first().is_some_and(u8::is_ascii_digit)
+        })
+        .count();
     *shift += inserted as u64;
     if *shift == 0 {
         return;

@@ -120,6 +120,10 @@ pub struct Summary {
     /// One sample per compensated line, when the run was traced
     /// ([`super::Compensator::run_traced`]).
     pub trace: Option<Vec<Sample>>,
+    /// Where the control turns the rotary axes for a tilted working plane (G53.1, a TNC
+    /// `PLANE … TURN` or the `L` block after `PLANE … STAY`): the line and each rotary
+    /// axis's name and angle (degrees), the solution nccomp follows.
+    pub plane_positions: Vec<(usize, Vec<(String, f64)>)>,
 }
 
 impl Summary {

@@ -64,6 +64,11 @@ pub struct CycleDef {
     /// The line of `CYCL DEF`.
     pub line: usize,
     pub params: Vec<(u32, Param)>,
+    /// The definition's lines as written (the `CYCL DEF` line and its continued lines).
+    pub text: Vec<Vec<u8>>,
+    /// The surface coordinate (Q203) the control now holds for it, where nccomp has
+    /// written a copy of the definition with another (program units).
+    pub surface_written: Option<f64>,
 }
 
 /// A cycle parameter's value.
@@ -79,6 +84,70 @@ impl CycleDef {
     pub fn get(&self, n: u32) -> Option<&Param> {
         self.params.iter().find(|(k, _)| *k == n).map(|(_, p)| p)
     }
+}
+
+/// The levels of a drilling cycle along the tool axis, from its definition: the surface
+/// (Q203), the bottom (Q203 + Q201), the set-up clearance (Q203 + Q200) and where the tool
+/// ends (Q203 + the larger of Q200 and Q204), in program units; `Err`: why the cycle is
+/// not one nccomp follows.
+pub fn drilling_levels(def: &CycleDef) -> Result<[f64; 4], String> {
+    let known = |q: u32| match def.get(q) {
+        Some(Param::Known(v)) => Ok(*v),
+        Some(Param::Unknown(what)) => Err(format!(
+            "Q{q} is given by {what}, which the program never sets to a constant (its value is decided at run time)"
+        )),
+        None => Err(format!("it has no Q{q}")),
+    };
+    match def.number {
+        // Drilling, reaming, universal drilling, universal pecking, tapping, rigid tapping
+        // and tapping with chip breaking go straight down the tool axis and back.
+        200 | 201 | 203 | 205 | 206 | 207 | 209 => {}
+        202 => {
+            // Boring: at the bottom the tool leaves the wall in the Q214 direction.
+            if known(214)? != 0.0 {
+                return Err("boring (202) with a disengaging direction Q214 other than 0 moves the tool sideways at the bottom".into());
+            }
+        }
+        204 | 208 => {
+            return Err(format!(
+                "cycle {} ({}) moves off the tool axis",
+                def.number,
+                if def.number == 204 {
+                    "back boring"
+                } else {
+                    "bore milling"
+                }
+            ));
+        }
+        n => {
+            return Err(format!(
+                "cycle {n} is not a drilling cycle nccomp follows (expected 200–203, 205–207, 209)"
+            ));
+        }
+    }
+    if let Some(Param::Known(v)) = def.get(395)
+        && *v != 0.0
+    {
+        return Err("Q395=1 measures the depth to the tool's full diameter, which depends on the tool's point angle".into());
+    }
+    let surface = known(203)?;
+    let depth = known(201)?;
+    let clearance = known(200)?;
+    let second = match def.get(204) {
+        None => 0.0,
+        Some(_) => known(204)?,
+    };
+    if depth >= 0.0 || clearance < 0.0 {
+        return Err(
+            "expected a negative depth Q201 and a set-up clearance Q200 of 0 or more".into(),
+        );
+    }
+    Ok([
+        surface,
+        surface + depth,
+        surface + clearance,
+        surface + clearance.max(second),
+    ])
 }
 
 /// A program's labels: each label's body, the lines from the label to `LBL 0`.
@@ -292,6 +361,7 @@ impl Reader<'_> {
         if tnc.continued {
             tnc.continued = continues(content);
             if let Some(def) = tnc.defining.as_mut() {
+                def.text.push(content.to_vec());
                 for &i in &sig {
                     let t = text(content, &tokens[i]);
                     if t == "~" {
@@ -714,10 +784,19 @@ impl Reader<'_> {
             if words.machine.is_some() {
                 return Err(at(tokens[i].span.start, "M99 with M91/M92 cannot be compensated (expected the hole's position in program coordinates)".into()));
             }
-            return Err(at(
-                tokens[i].span.start,
-                "cycle calls (M99) are not compensated in TNC programs yet".into(),
-            ));
+            if let Some((v, j)) = (0..n)
+                .filter_map(|v| out.axis_words[v].map(|j| (v, j)))
+                .find(|&(v, _)| !matches!(axes.letters[v], b'X' | b'Y'))
+            {
+                return Err(at(
+                    tokens[j].span.start,
+                    format!(
+                        "{} in a block that calls a cycle (M99): expected the hole's X and Y only (the cycle moves along the tool axis from its own levels)",
+                        axes.letters[v] as char
+                    ),
+                ));
+            }
+            return self.cycle_call(tokens[i].span.start, modal, tnc, at, out);
         }
         if let Some(i) = words.tcp_off
             && moves
@@ -880,6 +959,8 @@ impl Reader<'_> {
                     number: cycle,
                     line: number,
                     params: Vec::new(),
+                    text: vec![content.to_vec()],
+                    surface_written: None,
                 };
                 if tnc.continued {
                     tnc.defining = Some(def);
@@ -907,6 +988,8 @@ impl Reader<'_> {
                     number: cycle,
                     line: number,
                     params: Vec::new(),
+                    text: vec![content.to_vec()],
+                    surface_written: None,
                 };
                 if tnc.continued {
                     tnc.defining = Some(def);
@@ -918,14 +1001,15 @@ impl Reader<'_> {
         }
     }
 
-    /// M99 or CYCL CALL.
+    /// M99 or CYCL CALL: the drilling cycle defined last, at the block's X, Y (or where
+    /// the tool stands).
     fn cycle_call(
         &self,
         col: usize,
-        _modal: &mut Modal,
+        modal: &mut Modal,
         tnc: &mut Tnc,
         at: At<'_>,
-        _out: &mut BlockMotion,
+        out: &mut BlockMotion,
     ) -> Result<bool, Diagnostic> {
         let Some(def) = &tnc.cycle else {
             return Err(at(
@@ -933,13 +1017,21 @@ impl Reader<'_> {
                 "a cycle call, but no cycle is defined (expected CYCL DEF before it)".into(),
             ));
         };
-        Err(at(
-            col,
-            format!(
-                "the call of cycle {} (defined at line {}) is not compensated in TNC programs yet",
-                def.number, def.line
-            ),
-        ))
+        drilling_levels(def).map_err(|why| {
+            at(
+                col,
+                format!(
+                    "the call of cycle {} (defined at line {}) cannot be compensated: {why}",
+                    def.number, def.line
+                ),
+            )
+        })?;
+        if modal.tcp {
+            return Err(at(col, "a cycle call under tool-centre-point control (M128, FUNCTION TCPM) cannot be compensated (expected M129 or FUNCTION RESET TCPM before it)".into()));
+        }
+        out.kind = MoveKind::Cycle;
+        out.cycle_col = Some(col);
+        Ok(true)
     }
 
     /// `CYCL DEF 7.n X… Y… Z…`: the datum shift, in the working plane in force.

@@ -70,6 +70,8 @@ pub struct BlockMotion {
     pub homed: u32,
     /// A machine move's words are from Heidenhain's M92 reference, not machine zero.
     pub from_m92: bool,
+    /// A TNC cycle call (M99, CYCL CALL): the column of the call, for messages.
+    pub cycle_col: Option<usize>,
 }
 
 impl Default for BlockMotion {
@@ -82,6 +84,7 @@ impl Default for BlockMotion {
             kind: MoveKind::Program,
             homed: 0,
             from_m92: false,
+            cycle_col: None,
         }
     }
 }

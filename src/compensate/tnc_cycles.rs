@@ -1,0 +1,391 @@
+//! Heidenhain drilling cycles (CYCL DEF 200–203, 205–207, 209) called by M99 or CYCL CALL.
+//!
+//! The definition gives the levels along the tool axis (Q203 the surface, Q201 the depth
+//! below it, Q200 the set-up clearance above it, Q204 the second set-up clearance); the
+//! call gives the hole's X, Y (the L block that carries M99) or takes the tool's. The
+//! control goes down the tool axis at the hole's X, Y and comes back: in the tilted
+//! working plane under PLANE, along the plane's Z.
+//!
+//! As for G81 (see [`super::cycles`]) the hole is compensated at its bottom: X, Y in the
+//! calling block, the depth through the surface coordinate. One definition serves many
+//! holes and may not be rewritten where it stands (the control has read it), so where a
+//! hole needs another surface coordinate than the one the control holds, a copy of the
+//! definition with that Q203 is inserted before the call. The same check as G81's holds:
+//! one X, Y must serve the whole depth within the path tolerance.
+
+use super::Pass;
+use super::pipeline::{Block, Cx, Mode};
+use crate::diag::Diagnostic;
+use crate::kinematics::{MAX_AXES, Model, Solution};
+use crate::model::AxisKind;
+use crate::nc::Edit;
+use crate::nc::edit::Editor;
+use crate::nc::number::{same_text, write_fixed};
+use crate::program::WorkingPlane;
+use crate::program::exact::{Position, Unit};
+use crate::program::heidenhain::{self, CycleDef};
+use nalgebra::Vector3;
+
+/// A TNC cycle call being compensated.
+#[derive(Default)]
+pub(super) struct TncCycleMode {
+    /// The X, Y, Z variables.
+    vars: [usize; 3],
+    frame: Option<WorkingPlane>,
+    /// The definition called, and its levels (mm): surface, bottom, clearance, end.
+    def: Option<CycleDef>,
+    levels: [f64; 4],
+    /// The nominal values at the set-up clearance, and their solution.
+    r_plane: [f64; MAX_AXES],
+    r_solution: Option<Solution>,
+    /// Under a plane: the bottom and the clearance point of the compensated hole, in the
+    /// plane's frame (mm).
+    bottom_words: Vector3<f64>,
+    r_words: Vector3<f64>,
+}
+
+impl TncCycleMode {
+    fn col(cx: &Cx<'_, '_>) -> usize {
+        cx.motion.cycle_col.unwrap_or_else(|| cx.first_word_col())
+    }
+
+    fn refuse(cx: &Cx<'_, '_>, why: String) -> Diagnostic {
+        cx.refuse(
+            Self::col(cx),
+            format!("this cycle call cannot be compensated: {why}"),
+        )
+    }
+}
+
+impl Mode for TncCycleMode {
+    fn target(&mut self, b: &mut Block, q: &mut [f64; MAX_AXES]) -> Result<bool, Diagnostic> {
+        let (pass, cx, state, _) = b.parts();
+        let var = |letter: u8| {
+            pass.axes.var_of_letter[(letter - b'A') as usize]
+                .filter(|&v| pass.kin.kind(v) == AxisKind::Linear)
+        };
+        let (Some(vx), Some(vy), Some(vz)) = (var(b'X'), var(b'Y'), var(b'Z')) else {
+            return Err(Self::refuse(
+                cx,
+                "the machine has no linear X, Y and Z axes".into(),
+            ));
+        };
+        self.vars = [vx, vy, vz];
+        self.frame = state.modal.working_plane;
+        if cx.motion.optional {
+            return Err(Self::refuse(
+                cx,
+                "an optional block (/) with a cycle call is not supported".into(),
+            ));
+        }
+        if state.pos.unknown != 0 {
+            return Err(Self::refuse(
+                cx,
+                "it starts where an axis is at a place nccomp does not know (after a machine move: M91, M92 without a known reference)".into(),
+            ));
+        }
+        let Some(def) = state.modal.tnc.as_ref().and_then(|t| t.cycle.clone()) else {
+            return Err(Self::refuse(cx, "no cycle is defined".into()));
+        };
+        let levels = heidenhain::drilling_levels(&def).map_err(|why| Self::refuse(cx, why))?;
+        let zu = Unit::inch(state.modal.inch);
+        self.levels = levels.map(|x| zu.to_mm(x));
+        self.def = Some(def);
+        let [_, bottom, clearance, _] = self.levels;
+        let length = state.modal.length;
+        let (q_bottom, r_plane) = if let Some(frame) = self.frame {
+            pass.plane_checks(cx, state, &self.vars)?;
+            for (c, &v) in self.vars[..2].iter().enumerate() {
+                if let Some(i) = cx.motion.axis_words[v] {
+                    state.tip_nominal[c] = zu.to_mm(cx.number(i).0);
+                }
+            }
+            let at = |z: f64| {
+                let w = Vector3::new(state.tip_nominal[0], state.tip_nominal[1], z);
+                pass.plane_axes(&frame, &w, &state.pos.nominal, length)
+                    .ok_or_else(|| {
+                        Self::refuse(
+                            cx,
+                            format!(
+                                "the nominal machine cannot put the tip at X{:.4} Y{:.4} Z{z:.4} of the plane with the rotary axes where they stand",
+                                w.x, w.y
+                            ),
+                        )
+                    })
+            };
+            (at(bottom)?, at(clearance)?)
+        } else {
+            // Without a tilted plane the cycle drills along the machine's Z: only where
+            // the head's rotary axes leave the tool along it.
+            let chain = &pass.machine.tool_chains[pass.chain].axes;
+            if let Some(v) = (0..pass.kin.len()).find(|&v| {
+                pass.kin.kind(v) == AxisKind::Rotary
+                    && chain.contains(&pass.kin.axes()[v])
+                    && state.pos.nominal[v] != 0.0
+            }) {
+                return Err(Self::refuse(
+                    cx,
+                    format!(
+                        "without a tilted working plane the cycle drills along Z, and the head's axis {} stands at {:.4} (expected PLANE for a tilted hole)",
+                        pass.axis_name(v),
+                        state.pos.nominal[v]
+                    ),
+                ));
+            }
+            for v in [vx, vy] {
+                if state.pos.programmed & (1 << v) == 0 && cx.motion.axis_words[v].is_none() {
+                    return Err(Self::refuse(
+                        cx,
+                        format!(
+                            "the program has not set {} before the cycle",
+                            pass.letter(v) as char
+                        ),
+                    ));
+                }
+            }
+            state.pos.advance(
+                &pass.axes,
+                cx.line.content,
+                cx.tokens,
+                cx.motion,
+                &state.modal,
+                cx.at,
+                &mut state.units,
+            )?;
+            let mut q_bottom = state.pos.nominal;
+            q_bottom[vz] = bottom;
+            let mut r_plane = state.pos.nominal;
+            r_plane[vz] = clearance;
+            (q_bottom, r_plane)
+        };
+        pass.check_travel(&q_bottom, Self::col(cx), cx)?;
+        pass.check_travel(&r_plane, Self::col(cx), cx)?;
+        self.r_plane = r_plane;
+        *q = q_bottom;
+        Ok(true)
+    }
+
+    /// The rotary axes stay where they are; the linear ones take the whole correction.
+    fn hold(&self, pass: &Pass<'_>) -> u32 {
+        (0..pass.kin.len())
+            .filter(|&v| !pass.is_linear(v))
+            .fold(0, |m, v| m | 1 << v)
+    }
+
+    /// One X, Y serves the whole depth: the tool at the set-up clearance, with the bottom's
+    /// X, Y, is still on the hole's axis.
+    fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic> {
+        let (pass, cx, state, _) = b.parts();
+        let n = pass.kin.len();
+        let [vx, vy, _] = self.vars;
+        let (r_sol, _) = pass.solve(&self.r_plane, hold, cx, state)?;
+        pass.check_travel(&r_sol.q, Self::col(cx), cx)?;
+        let tolerance = pass.options.path.unwrap_or_default().position;
+        let mut at_r = r_sol.q;
+        at_r[vx] = end.q[vx];
+        at_r[vy] = end.q[vy];
+        if let Some(frame) = &self.frame {
+            let length = state.modal.length;
+            self.bottom_words = pass.plane_words(frame, &end.q, length);
+            self.r_words = pass.plane_words(frame, &r_sol.q, length);
+            let over_r = Vector3::new(self.bottom_words.x, self.bottom_words.y, self.r_words.z);
+            at_r = pass
+                .plane_axes(frame, &over_r, &state.emitted, length)
+                .ok_or_else(|| {
+                    Self::refuse(
+                        cx,
+                        "the nominal machine cannot reach the set-up clearance above the corrected hole".into(),
+                    )
+                })?;
+        }
+        let (reached, _) = pass.kin.pose(Model::Actual, &at_r[..n], state.modal.length);
+        let off = (reached.p - r_sol.target.p).norm();
+        if off > tolerance || end.position_residual > 1e-6 {
+            return Err(Self::refuse(
+                cx,
+                format!(
+                    "one X, Y cannot serve the whole depth here: with the bottom's correction the tool is {:.2} µm off the hole's axis at the set-up clearance (more than {:.2} µm; program the hole as L moves)",
+                    off * 1e3,
+                    tolerance * 1e3
+                ),
+            ));
+        }
+        self.r_solution = Some(r_sol);
+        Ok(())
+    }
+
+    /// X, Y in the calling block; the depth through a copy of the definition with the
+    /// surface coordinate the hole needs, where the control's differs.
+    fn write(&mut self, b: &mut Block, end: &Solution) -> Result<(), Diagnostic> {
+        let (pass, cx, state, out) = b.parts();
+        let Some(def) = self.def.as_ref() else {
+            return Ok(());
+        };
+        let vz = self.vars[2];
+        let zu = Unit::inch(state.modal.inch);
+        let [surface, bottom, _, _] = self.levels;
+        let given_xy = self.vars[..2]
+            .iter()
+            .all(|&v| cx.motion.axis_words[v].is_some());
+        let corrected_bottom = match &self.frame {
+            Some(_) => {
+                let height = state.tip_written[2];
+                let before = [state.tip_written[0], state.tip_written[1]];
+                let xy = Vector3::new(self.bottom_words.x, self.bottom_words.y, height);
+                pass.write_tip_words(cx, &self.vars, &xy, None, state, out);
+                let moved = [state.tip_written[0], state.tip_written[1]] != before;
+                if moved && !given_xy && cx.motion.axis_words.iter().all(Option::is_none) {
+                    return Err(Self::refuse(
+                        cx,
+                        "the hole needs a corrected X, Y and the call does not give them (expected L X… Y… … M99)".into(),
+                    ));
+                }
+                self.bottom_words.z
+            }
+            None => {
+                let mut q = end.q;
+                q[vz] = state.emitted[vz];
+                let emitted = state.emitted;
+                pass.write_positions(cx, &q, false, state, out)?;
+                if state.emitted != emitted && cx.motion.axis_words.iter().all(Option::is_none) {
+                    return Err(Self::refuse(
+                        cx,
+                        "the hole needs a corrected X, Y and the call does not give them (expected L X… Y… … M99)".into(),
+                    ));
+                }
+                end.q[vz]
+            }
+        };
+        // The surface coordinate that puts the corrected bottom where the control drills.
+        let (text_decimals, programmed) = surface_text(def).unwrap_or((0, zu.of_mm(surface)));
+        let d = text_decimals.max(pass.res_decimals(vz, zu));
+        let needed = zu.of_mm(surface + (corrected_bottom - bottom));
+        let mut held = def.surface_written.unwrap_or(programmed);
+        if !same_text(held, needed, d) {
+            let mut number = String::new();
+            write_fixed(needed, d, &mut number);
+            let text = copy_with_surface(cx, def, &number, state.renumber);
+            // Before any word inserted at the line's start (as `Editor::insert_blocks`).
+            out.edits.insert(0, Edit { at: 0..0, text });
+            out.summary.words_changed += 1;
+            let written: f64 = number.parse().unwrap_or(needed);
+            if let Some(c) = state.modal.tnc.as_mut().and_then(|t| t.cycle.as_mut()) {
+                c.surface_written = Some(written);
+            }
+            if let Some(d) = self.def.as_mut() {
+                d.surface_written = Some(written);
+            }
+            held = written;
+        }
+        // What the control is told: the hole's bottom as the written words and surface
+        // put it.
+        let bottom_written = zu.to_mm(held) + (bottom - surface);
+        match self.frame {
+            Some(frame) => {
+                let tip = Vector3::new(state.tip_written[0], state.tip_written[1], bottom_written);
+                if let Some(q) = pass.plane_axes(&frame, &tip, &state.emitted, state.modal.length) {
+                    state.emitted = q;
+                }
+            }
+            None => state.emitted[vz] = bottom_written,
+        }
+        Ok(())
+    }
+
+    /// The tool ends at the larger of the set-up clearances above the surface the control
+    /// holds.
+    fn after(&mut self, b: &mut Block) {
+        let (pass, _, state, _) = b.parts();
+        let Some(def) = self.def.as_ref() else {
+            return;
+        };
+        let zu = Unit::inch(state.modal.inch);
+        let [surface, _, _, end] = self.levels;
+        let held = def.surface_written.map_or(surface, |s| zu.to_mm(s));
+        let (z_nominal, z_written) = (end, held + (end - surface));
+        let vz = self.vars[2];
+        if let Some(frame) = &self.frame {
+            state.tip_nominal[2] = z_nominal;
+            state.tip_written[2] = z_written;
+            let length = state.modal.length;
+            let (nominal, written) = (
+                Vector3::from(state.tip_nominal),
+                Vector3::from(state.tip_written),
+            );
+            if let Some(q) = pass.plane_axes(frame, &nominal, &state.pos.nominal, length) {
+                state.pos.nominal = q;
+            }
+            if let Some(q) = pass.plane_axes(frame, &written, &state.emitted, length) {
+                state.emitted = q;
+            }
+            for v in 0..pass.kin.len() {
+                state.written[v] = Position::Decimal {
+                    value: state.emitted[v],
+                    decimals: state.decimals[v],
+                    unit: Unit::MM,
+                };
+            }
+            return;
+        }
+        state.pos.nominal[vz] = z_nominal;
+        state.emitted[vz] = z_written;
+        state.written[vz] = Position::Decimal {
+            value: zu.of_mm(z_written),
+            decimals: state.decimals[vz],
+            unit: zu,
+        };
+    }
+}
+
+/// The decimals and value of the definition's `Q203=` as written.
+fn surface_text(def: &CycleDef) -> Option<(u8, f64)> {
+    def.text.iter().find_map(|line| {
+        let (_, value) = value_at(line, b"Q203=")?;
+        let text = std::str::from_utf8(value).ok()?;
+        let decimals = text.split_once('.').map_or(0, |(_, f)| f.len());
+        Some((u8::try_from(decimals).ok()?, text.parse().ok()?))
+    })
+}
+
+/// The bytes after `key` up to a space, `;` or `~`, and where they start.
+fn value_at<'a>(line: &'a [u8], key: &[u8]) -> Option<(usize, &'a [u8])> {
+    let start = line.windows(key.len()).position(|w| w == key)? + key.len();
+    let len = line[start..]
+        .iter()
+        .take_while(|b| !matches!(b, b' ' | b'\t' | b';' | b'~' | b'\r'))
+        .count();
+    Some((start, &line[start..start + len]))
+}
+
+/// The definition's lines with `Q203=` set to `number` and the block number it takes as a
+/// block inserted before the calling line, each with the line's ending.
+fn copy_with_surface(cx: &Cx<'_, '_>, def: &CycleDef, number: &str, shift: u64) -> Vec<u8> {
+    let ending = Editor::ending(cx.line.ending);
+    let own = heidenhain::number_of(cx.line.content, cx.tokens);
+    let mut text = Vec::new();
+    for (k, line) in def.text.iter().enumerate() {
+        let mut line = line.clone();
+        if k == 0
+            && let Some(n) = own
+        {
+            let start = line
+                .iter()
+                .take_while(|b| matches!(b, b' ' | b'\t'))
+                .count();
+            let digits = line[start..]
+                .iter()
+                .take_while(|b| b.is_ascii_digit())
+                .count();
+            if digits > 0 {
+                line.splice(start..start + digits, (n + shift).to_string().bytes());
+            }
+        }
+        if let Some((start, value)) = value_at(&line, b"Q203=") {
+            let end = start + value.len();
+            line.splice(start..end, number.bytes());
+        }
+        text.extend_from_slice(&line);
+        text.extend_from_slice(ending.as_bytes());
+    }
+    text
+}

@@ -1,0 +1,1276 @@
+//! Heidenhain TNC conversational programs (hyperMILL's style) checked against an
+//! independent model of the control: the programs are read here (not by nccomp's reader),
+//! `PLANE SPATIAL` is turned into its rotation R = Rz(SPC)·Ry(SPB)·Rx(SPA) about the
+//! datum of `CYCL DEF 7`, the rotary axes go where SEQ± puts them (closed form, per
+//! machine) at `TURN` or at the `L A+Q120 C+Q122` block after `STAY`, X Y Z under a plane
+//! are the tip in the plane's frame and under M128 / FUNCTION TCPM the tip in the part
+//! frame, with the rotary words axis angles. The real machine is evaluated with the error
+//! model (nccomp's chains, whose nominal form is checked here against closed forms). Every
+//! block end of the written program must put the tip where the programmed block puts it on
+//! the nominal machine, and the path between (moves at feed in a plane and under TCP) must
+//! stay within the path tolerance.
+//!
+//! Also: the rotary positions nccomp reports for each plane of the hyperMILL programs of
+//! `../shared/corpus/cam` (when it is there) against hyperMILL's own comments
+//! (`; A-90 C270`), the compensated fixtures pinned as snapshots, and the zero model.
+
+use nalgebra::{Rotation3, Vector3};
+use nccomp::compensate::{Compensator, Options, Summary};
+use nccomp::kinematics::path::PathTolerance;
+use nccomp::kinematics::{Kinematics, Model, angle_between};
+use nccomp::model::{ErrorModel, Machine, error_file, machine_file};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Block ends in a plane or under TCP: the tip words are rounded to 0.1 µm, so the tip is
+/// off by up to half of it on each axis.
+const END: f64 = 1.0e-4;
+/// Block ends in machine axes: the rotary words are rounded too, to 0.0001°, which the
+/// linear words take up only to their own rounding.
+const END_AXES: f64 = 2.5e-4;
+/// The tool direction at a block end where the rotary words are written (machine axes,
+/// TCP): two rotary words rounded to 0.0001° turn it by up to 1.2 µrad.
+const END_DIRECTION: f64 = 2.0e-6;
+/// A written block is the programmed block's own line when its real tip lands this close
+/// to the programmed end (the pieces inserted before it end inside the move).
+const MATCH: f64 = 5.0e-4;
+/// Samples along each written piece of a move.
+const SAMPLES: usize = 32;
+/// Below this tilt (degrees) the tool lies (nearly) along C, which cannot turn it: its
+/// direction is not checked there.
+const SINGULAR_TILT: f64 = 3.0;
+
+fn rx(deg: f64) -> Rotation3<f64> {
+    Rotation3::from_axis_angle(&Vector3::x_axis(), deg.to_radians())
+}
+
+fn ry(deg: f64) -> Rotation3<f64> {
+    Rotation3::from_axis_angle(&Vector3::y_axis(), deg.to_radians())
+}
+
+fn rz(deg: f64) -> Rotation3<f64> {
+    Rotation3::from_axis_angle(&Vector3::z_axis(), deg.to_radians())
+}
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
+}
+
+fn fixture(name: &str) -> String {
+    std::fs::read_to_string(root().join("fixtures").join(name)).unwrap()
+}
+
+/// `x` and `y` are the same angle (modulo a turn) within `tol` degrees.
+fn same_angle(x: f64, y: f64, tol: f64) -> bool {
+    let d = (x - y) / 360.0;
+    (d - d.round()).abs() * 360.0 <= tol
+}
+
+/// The options `nccomp compensate` runs with by default (src/cli/compensate.rs:
+/// `--tolerance 0.001`, `--angular-tolerance 10`).
+fn cli_options() -> Options {
+    Options {
+        path: Some(PathTolerance {
+            position: 0.001,
+            direction: 10e-6,
+            ..PathTolerance::default()
+        }),
+        ..Options::default()
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// The machines in closed form.
+
+/// The three machines of the fixtures. Axis values are [X, Y, Z, tilt, C], the tilt being
+/// A or B.
+#[derive(Clone, Copy, Debug)]
+enum Geometry {
+    /// AC trunnion (fixtures/ac_trunnion.machine.toml): the table moves in X, Y (directions
+    /// -X, -Y), A turns the part about -X through (0, 0, a_z), C about -Z through the
+    /// origin; the spindle moves in Z.
+    Trunnion { a_z: f64 },
+    /// Fork head (fixtures/head_head.machine.toml): the head moves in X, Y, Z, C turns it
+    /// about +Z through the origin, A tilts the spindle about +X through (0, 0, pivot).
+    HeadHead { pivot: f64 },
+    /// B head over a C table (fixtures/bc_head_table.machine.toml): the head moves in X,
+    /// Y, Z, B swivels the spindle about +Y through (0, 0, pivot); C turns the part about
+    /// -Z through the origin.
+    HeadTable { pivot: f64 },
+}
+
+type Axes = [f64; 5];
+
+struct Setup {
+    geometry: Geometry,
+    machine: Machine,
+    errors: ErrorModel,
+    /// The tilting axis's letter (A or B).
+    tilt: char,
+    tilt_travel: Option<[f64; 2]>,
+}
+
+impl Setup {
+    fn load(machine: &str, errors: &str) -> Setup {
+        let dir = root().join("fixtures");
+        let machine = machine_file::load(&dir.join(format!("{machine}.machine.toml"))).unwrap();
+        let errors = error_file::load(&dir.join(format!("{errors}.errors.toml")), &machine).unwrap();
+        let axis = |n: &str| machine.axes.iter().find(|a| a.name == n);
+        assert!(
+            axis("C").unwrap().travel.is_none(),
+            "the closed form's C turns without end"
+        );
+        let (geometry, tilt) = if let Some(b) = axis("B") {
+            (Geometry::HeadTable { pivot: b.point.z }, 'B')
+        } else if machine.workpiece_chain.is_empty() {
+            (
+                Geometry::HeadHead {
+                    pivot: axis("A").unwrap().point.z,
+                },
+                'A',
+            )
+        } else {
+            (
+                Geometry::Trunnion {
+                    a_z: axis("A").unwrap().point.z,
+                },
+                'A',
+            )
+        };
+        let tilt_travel = axis(&tilt.to_string()).unwrap().travel;
+        Setup {
+            geometry,
+            machine,
+            errors,
+            tilt,
+            tilt_travel,
+        }
+    }
+
+    /// The tool length beyond the machine file's reference tool.
+    fn offset(&self, length: f64) -> f64 {
+        length - self.machine.tool.length
+    }
+
+    /// The tool direction in the part frame at tilt `t` and C `c`.
+    fn direction(&self, t: f64, c: f64) -> Vector3<f64> {
+        match self.geometry {
+            Geometry::Trunnion { .. } | Geometry::HeadHead { .. } => rz(c) * rx(t) * Vector3::z(),
+            Geometry::HeadTable { .. } => rz(c) * ry(t) * Vector3::z(),
+        }
+    }
+
+    /// The nominal tip and tool direction in the part frame at `q`.
+    fn forward(&self, q: Axes, length: f64) -> (Vector3<f64>, Vector3<f64>) {
+        let l = self.offset(length);
+        let p = match self.geometry {
+            Geometry::Trunnion { a_z } => {
+                let a = Vector3::new(0.0, 0.0, a_z);
+                let w = Vector3::new(q[0], q[1], q[2] - l);
+                rz(q[4]) * (a + rx(q[3]) * (w - a))
+            }
+            Geometry::HeadHead { pivot } => {
+                let p = Vector3::new(0.0, 0.0, pivot);
+                Vector3::new(q[0], q[1], q[2])
+                    + rz(q[4]) * (p + rx(q[3]) * (Vector3::new(0.0, 0.0, -l) - p))
+            }
+            Geometry::HeadTable { pivot } => {
+                let p = Vector3::new(0.0, 0.0, pivot);
+                rz(q[4])
+                    * (Vector3::new(q[0], q[1], q[2])
+                        + p
+                        + ry(q[3]) * (Vector3::new(0.0, 0.0, -l) - p))
+            }
+        };
+        (p, self.direction(q[3], q[4]))
+    }
+
+    /// The control's linear axes for a part-frame tip with the rotary axes at `t`, `c`.
+    fn linear_axes(&self, tip: Vector3<f64>, t: f64, c: f64, length: f64) -> Axes {
+        let l = self.offset(length);
+        let w = match self.geometry {
+            Geometry::Trunnion { a_z } => {
+                let a = Vector3::new(0.0, 0.0, a_z);
+                let w = a + rx(-t) * (rz(-c) * tip - a);
+                Vector3::new(w.x, w.y, w.z + l)
+            }
+            Geometry::HeadHead { pivot } => {
+                let p = Vector3::new(0.0, 0.0, pivot);
+                tip - rz(c) * (p + rx(t) * (Vector3::new(0.0, 0.0, -l) - p))
+            }
+            Geometry::HeadTable { pivot } => {
+                let p = Vector3::new(0.0, 0.0, pivot);
+                rz(-c) * tip - p - ry(t) * (Vector3::new(0.0, 0.0, -l) - p)
+            }
+        };
+        [w.x, w.y, w.z, t, c]
+    }
+
+    /// The variables of nccomp's kinematics in its order.
+    fn vars(&self, kin: &Kinematics, q: Axes) -> Vec<f64> {
+        kin.axes()
+            .iter()
+            .map(|&i| match self.machine.axes[i].name.as_str() {
+                "X" => q[0],
+                "Y" => q[1],
+                "Z" => q[2],
+                "C" => q[4],
+                name if name.starts_with(self.tilt) => q[3],
+                other => panic!("axis {other}"),
+            })
+            .collect()
+    }
+
+    /// The rotary values at which the tool points along the plane's normal `n`, by SEQ±:
+    /// the tilt at or above 0 (SEQ+) or at or below (SEQ-). The tilt is the master axis
+    /// on all three machines (the head's axis nearest the tool, or the table's nearest the
+    /// bed). C turns without end: the nearest turn to where it stands.
+    fn plane_rotaries(&self, n: Vector3<f64>, from: [f64; 2], positive: bool) -> [f64; 2] {
+        let t = n.z.clamp(-1.0, 1.0).acos().to_degrees();
+        assert!(
+            t > 1e-6,
+            "a plane along C (C free, TABLE ROT) is not in these fixtures"
+        );
+        // (sin t sin c, -sin t cos c, cos t) about X; (sin t cos c, sin t sin c, cos t)
+        // about Y.
+        let c_plus = match self.tilt {
+            'A' => n.x.atan2(-n.y),
+            _ => n.y.atan2(n.x),
+        }
+        .to_degrees();
+        let (t, c) = if positive {
+            (t, c_plus)
+        } else {
+            (-t, c_plus + 180.0)
+        };
+        let c = c + 360.0 * ((from[1] - c) / 360.0).round();
+        if let Some([lo, hi]) = self.tilt_travel {
+            assert!(
+                (lo..=hi).contains(&t),
+                "{}{t} is outside its travel",
+                self.tilt
+            );
+        }
+        [t, c]
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// The programs, read as the control runs them.
+
+/// A working plane: origin (the datum) and rotation in the part frame.
+#[derive(Clone, Copy, Debug)]
+struct Plane {
+    origin: Vector3<f64>,
+    r: Rotation3<f64>,
+}
+
+impl Plane {
+    fn part(&self, w: Vector3<f64>) -> Vector3<f64> {
+        self.origin + self.r * w
+    }
+
+    fn words(&self, p: Vector3<f64>) -> Vector3<f64> {
+        self.r.inverse() * (p - self.origin)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    /// Machine axes: the words are axis values (X Y Z plus the datum).
+    Axes,
+    /// In a tilted plane: X Y Z are the tip in the plane's frame, the rotary axes stand.
+    Plane,
+    /// Under M128 / FUNCTION TCPM: X Y Z the part-frame tip, the rotary words axis angles.
+    Tcp,
+    /// The control turns the rotary axes to a plane (TURN, or the block after STAY).
+    Turn,
+}
+
+/// One block that moves, as the control runs it.
+#[derive(Clone, Copy, Debug)]
+struct Step {
+    kind: Kind,
+    rapid: bool,
+    length: f64,
+    /// The control's axis values at the start and the end.
+    q0: Axes,
+    q1: Axes,
+    /// Under TCP: the part-frame tip at the start and the end (the rotary values are in
+    /// q0, q1).
+    tip0: Vector3<f64>,
+    tip1: Vector3<f64>,
+}
+
+/// A line of the program: its text without the block number, the number, and what it does.
+#[derive(Clone, Debug)]
+struct Rec {
+    text: String,
+    step: Option<Step>,
+    /// For a PLANE SPATIAL line: its plane (and for the comment check, the line index).
+    is_plane: bool,
+}
+
+/// The control's state.
+struct Control<'s> {
+    setup: &'s Setup,
+    q: Axes,
+    length: f64,
+    datum: Vector3<f64>,
+    plane: Option<Plane>,
+    /// Angles of a PLANE … STAY waiting for the `L A+Q120 C+Q122` block.
+    pending: Option<[f64; 2]>,
+    tcp: bool,
+    /// Under TCP: the programmed part-frame tip (words are modal).
+    tip: Vector3<f64>,
+    ended: bool,
+    q_params: HashMap<String, f64>,
+    labels: HashMap<String, Vec<String>>,
+}
+
+/// Split a TNC line into its block number and the rest.
+fn split_number(line: &str) -> (Option<u64>, &str) {
+    let line = line.trim_end_matches('\r');
+    let digits = line.bytes().take_while(u8::is_ascii_digit).count();
+    if digits > 0 && line[digits..].starts_with(' ') {
+        (line[..digits].parse().ok(), &line[digits + 1..])
+    } else {
+        (None, line)
+    }
+}
+
+/// The statement of a line: its words without the comment (empty for a comment line).
+fn statement(rest: &str) -> Vec<&str> {
+    let body = rest.split(';').next().unwrap();
+    if body.trim_start().starts_with('*') {
+        return Vec::new();
+    }
+    body.split_whitespace().collect()
+}
+
+/// A word's letter and value text (`X-55` → ('X', "-55"), `A+Q120` → ('A', "+Q120")).
+fn letter(word: &str) -> (char, &str) {
+    let c = word.chars().next().unwrap();
+    (c, &word[1..])
+}
+
+impl<'s> Control<'s> {
+    fn new(setup: &'s Setup, program: &str) -> Self {
+        // The labels after the program end: their bodies up to LBL 0.
+        let mut labels = HashMap::new();
+        let mut current: Option<(String, Vec<String>)> = None;
+        for line in program.lines() {
+            let words = statement(split_number(line).1);
+            if words.first() == Some(&"LBL") {
+                if let Some((name, body)) = current.take() {
+                    labels.insert(name, body);
+                }
+                if words[1] != "0" {
+                    current = Some((words[1].to_string(), Vec::new()));
+                }
+            } else if let Some((_, body)) = current.as_mut() {
+                body.push(line.to_string());
+            }
+        }
+        Control {
+            setup,
+            q: [0.0; 5],
+            length: setup.machine.tool.length,
+            datum: Vector3::zeros(),
+            plane: None,
+            pending: None,
+            tcp: false,
+            tip: Vector3::zeros(),
+            ended: false,
+            q_params: HashMap::new(),
+            labels,
+        }
+    }
+
+    /// Run one line; the step it makes, if it moves.
+    fn line(&mut self, words: &[&str], is_plane: &mut bool) -> Option<Step> {
+        if words.is_empty() || self.ended {
+            return None;
+        }
+        match words[0] {
+            "BEGIN" | "END" | "BLK" => None,
+            "TOOL" => {
+                if words[1] == "CALL" {
+                    assert!(!self.tcp && self.plane.is_none());
+                    let n: u32 = words[2].parse().unwrap();
+                    self.length = self.setup.machine.tool.lengths[&n];
+                    for w in &words[3..] {
+                        if let Some(dl) = w.strip_prefix("DL") {
+                            self.length += dl.parse::<f64>().unwrap();
+                        }
+                    }
+                }
+                None
+            }
+            "FN" => {
+                let text: String = words[1..].concat();
+                let (name, value) = text.strip_prefix("0:").unwrap().split_once('=').unwrap();
+                self.q_params
+                    .insert(name.to_string(), value.parse().unwrap());
+                None
+            }
+            "CALL" => {
+                assert_eq!(words[1], "LBL");
+                let body = self.labels[words[2]].clone();
+                for line in &body {
+                    let words = statement(split_number(line).1);
+                    let mut plane = false;
+                    assert!(
+                        self.line(&words, &mut plane).is_none(),
+                        "a label that moves: {line}"
+                    );
+                }
+                None
+            }
+            "CYCL" => {
+                assert_eq!(words[1], "DEF");
+                match words[2] {
+                    "7.0" => {}
+                    "7.1" | "7.2" | "7.3" => {
+                        let (c, value) = letter(words[3]);
+                        let k = (c as u8 - b'X') as usize;
+                        let value: f64 = value.parse().unwrap();
+                        match self.plane.as_mut() {
+                            // In a tilted plane the shift is along the plane's axes; these
+                            // programs only reset it there.
+                            Some(p) => {
+                                assert_eq!(value, 0.0, "a datum shift in a tilted plane");
+                                let mut d = p.r.inverse() * p.origin;
+                                d[k] = 0.0;
+                                p.origin = p.r * d;
+                                self.datum = p.origin;
+                            }
+                            None => self.datum[k] = value,
+                        }
+                    }
+                    other => panic!("CYCL DEF {other}"),
+                }
+                None
+            }
+            "PLANE" => {
+                assert!(!self.tcp);
+                self.pending = None;
+                if words[1] == "RESET" {
+                    assert!(words.contains(&"STAY"));
+                    self.plane = None;
+                    return None;
+                }
+                assert_eq!(words[1], "SPATIAL");
+                *is_plane = true;
+                let angle = |prefix: &str| -> f64 {
+                    words[2..]
+                        .iter()
+                        .find_map(|w| w.strip_prefix(prefix))
+                        .unwrap()
+                        .parse()
+                        .unwrap()
+                };
+                let (a, b, c) = (angle("SPA"), angle("SPB"), angle("SPC"));
+                let plane = Plane {
+                    origin: self.datum,
+                    r: rz(c) * ry(b) * rx(a),
+                };
+                let positive = if words.contains(&"SEQ+") {
+                    true
+                } else {
+                    assert!(words.contains(&"SEQ-"), "SEQ+ or SEQ- in these programs");
+                    false
+                };
+                let angles = self.setup.plane_rotaries(
+                    plane.r * Vector3::z(),
+                    [self.q[3], self.q[4]],
+                    positive,
+                );
+                self.plane = Some(plane);
+                if words.contains(&"TURN") {
+                    Some(self.turn(angles))
+                } else {
+                    assert!(words.contains(&"STAY"));
+                    self.pending = Some(angles);
+                    None
+                }
+            }
+            "FUNCTION" => {
+                match (words[1], words[2]) {
+                    ("TCPM", _) => {
+                        assert_eq!(words[2..], ["F", "TCP", "AXIS", "POS", "PATHCTRL", "AXIS"]);
+                        assert!(self.plane.is_none());
+                        self.tcp_on();
+                    }
+                    ("RESET", "TCPM") => self.tcp = false,
+                    other => panic!("FUNCTION {other:?}"),
+                }
+                None
+            }
+            "L" => self.straight(&words[1..]),
+            "LBL" => panic!("a label before the program's end"),
+            w if w.starts_with('M') => {
+                for w in words {
+                    self.m(w);
+                }
+                None
+            }
+            other => panic!("`{other}` is not read here"),
+        }
+    }
+
+    fn tcp_on(&mut self) {
+        self.tcp = true;
+        self.tip = self.setup.forward(self.q, self.length).0 - self.datum;
+    }
+
+    fn m(&mut self, word: &str) {
+        match word {
+            "M3" | "M5" | "M8" | "M9" | "M126" | "M127" => {}
+            "M128" => self.tcp_on(),
+            "M129" => self.tcp = false,
+            "M30" | "M2" => self.ended = true,
+            other => panic!("{other} is not read here"),
+        }
+    }
+
+    /// The control turns the rotary axes; the linear axes stay.
+    fn turn(&mut self, [t, c]: [f64; 2]) -> Step {
+        let q0 = self.q;
+        self.q[3] = t;
+        self.q[4] = c;
+        Step {
+            kind: Kind::Turn,
+            rapid: true,
+            length: self.length,
+            q0,
+            q1: self.q,
+            tip0: Vector3::zeros(),
+            tip1: Vector3::zeros(),
+        }
+    }
+
+    fn straight(&mut self, words: &[&str]) -> Option<Step> {
+        let mut axes: Vec<(char, f64)> = Vec::new();
+        let mut plane_angles = false;
+        let mut rapid = false;
+        let mut k = 0;
+        while k < words.len() {
+            let w = words[k];
+            k += 1;
+            match w {
+                "R0" => continue,
+                "FMAX" => rapid = true,
+                "F" if words.get(k) == Some(&"MAX") => {
+                    rapid = true;
+                    k += 1;
+                }
+                _ if w.starts_with('F') => {}
+                _ if w.starts_with('M') => self.m(w),
+                _ => {
+                    let (c, value) = letter(w);
+                    assert!("XYZABC".contains(c), "`{w}`");
+                    if let Some(q) = value.strip_prefix("+Q") {
+                        let expected = match c {
+                            'A' => "120",
+                            'B' => "121",
+                            _ => "122",
+                        };
+                        assert_eq!(q, expected, "`{w}`");
+                        plane_angles = true;
+                    } else {
+                        axes.push((c, value.parse().unwrap()));
+                    }
+                }
+            }
+        }
+        if plane_angles {
+            assert!(axes.is_empty());
+            let angles = self.pending.take().expect("PLANE … STAY before the Q120 block");
+            return Some(self.turn(angles));
+        }
+        if axes.is_empty() {
+            return None;
+        }
+        let q0 = self.q;
+        let index = |c: char| match c {
+            'X' => 0,
+            'Y' => 1,
+            'Z' => 2,
+            'C' => 4,
+            _ => {
+                assert_eq!(c, self.setup.tilt, "a rotary word of another machine");
+                3
+            }
+        };
+        let kind = if self.tcp {
+            assert!(self.plane.is_none());
+            let tip0 = self.tip;
+            for &(c, v) in &axes {
+                match index(c) {
+                    k @ 0..=2 => self.tip[k] = v,
+                    k => self.q[k] = v,
+                }
+            }
+            self.q = self.setup.linear_axes(
+                self.datum + self.tip,
+                self.q[3],
+                self.q[4],
+                self.length,
+            );
+            return Some(Step {
+                kind: Kind::Tcp,
+                rapid,
+                length: self.length,
+                q0,
+                q1: self.q,
+                tip0: self.datum + tip0,
+                tip1: self.datum + self.tip,
+            });
+        } else if let Some(plane) = self.plane {
+            assert!(self.pending.is_none(), "a move before the STAY block");
+            let mut w = plane.words(self.setup.forward(self.q, self.length).0);
+            for &(c, v) in &axes {
+                let k = index(c);
+                assert!(k < 3, "rotary words under a plane");
+                w[k] = v;
+            }
+            self.q = self
+                .setup
+                .linear_axes(plane.part(w), self.q[3], self.q[4], self.length);
+            Kind::Plane
+        } else {
+            for &(c, v) in &axes {
+                let k = index(c);
+                self.q[k] = if k < 3 { v + self.datum[k] } else { v };
+            }
+            Kind::Axes
+        };
+        Some(Step {
+            kind,
+            rapid,
+            length: self.length,
+            q0,
+            q1: self.q,
+            tip0: Vector3::zeros(),
+            tip1: Vector3::zeros(),
+        })
+    }
+}
+
+/// Run a program as the control does: every line, with the step it makes.
+fn run(setup: &Setup, program: &str) -> Vec<Rec> {
+    let mut control = Control::new(setup, program);
+    program
+        .lines()
+        .map(|line| {
+            let rest = split_number(line).1;
+            let words = statement(rest);
+            let mut is_plane = false;
+            let step = control.line(&words, &mut is_plane);
+            Rec {
+                text: rest.to_string(),
+                step,
+                is_plane,
+            }
+        })
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------
+// The contract, evaluated.
+
+fn from_segment(p: Vector3<f64>, a: Vector3<f64>, b: Vector3<f64>) -> f64 {
+    let d = b - a;
+    let s = ((p - a).dot(&d) / d.norm_squared().max(1e-30)).clamp(0.0, 1.0);
+    (p - (a + d * s)).norm()
+}
+
+fn lerp<const N: usize>(a: &[f64; N], b: &[f64; N], u: f64) -> [f64; N] {
+    std::array::from_fn(|k| a[k] + (b[k] - a[k]) * u)
+}
+
+/// What the evaluation measured.
+#[derive(Debug, Default)]
+struct Figures {
+    /// Block ends checked, and the largest tip distance (mm) in planes and under TCP, and
+    /// in machine axes.
+    ends: usize,
+    end: f64,
+    end_axes: f64,
+    /// The largest tool direction error (rad) at block ends whose rotary words are written
+    /// (machine axes and TCP, away from C's singular pose).
+    end_direction: f64,
+    /// The largest tip distance from the programmed path (mm) sampled along the written
+    /// moves at feed, and the most by which one exceeded the tolerance plus its floor.
+    path: f64,
+    path_excess: f64,
+    /// Under TCP: the largest direction error along the path (rad), and its excess.
+    path_direction: f64,
+    path_direction_excess: f64,
+    /// Blocks inserted, and moves split.
+    inserted: usize,
+    split: usize,
+    /// Where an assertion would fail: the first few.
+    faults: Vec<String>,
+}
+
+impl Figures {
+    fn fault(&mut self, text: String) {
+        if self.faults.len() < 8 {
+            self.faults.push(text);
+        }
+    }
+}
+
+/// The written program against the programmed one.
+fn evaluate(setup: &Setup, programmed: &str, written: &str) -> Figures {
+    let kin = Kinematics::new(&setup.machine, &setup.errors, 0).unwrap();
+    let tol = cli_options().path.unwrap();
+    let actual = |q: Axes, length: f64| kin.pose(Model::Actual, &setup.vars(&kin, q), length).0;
+    let nominal = run(setup, programmed);
+    let real = run(setup, written);
+    let mut f = Figures::default();
+    let mut k = 0;
+    for (i, rec) in nominal.iter().enumerate() {
+        let Some(step) = rec.step.filter(|s| s.kind != Kind::Turn) else {
+            // Lines that move nothing, and the control's turns, are written unchanged.
+            assert_eq!(
+                real[k].text,
+                rec.text,
+                "line {} is written changed",
+                i + 1
+            );
+            if let (Some(a), Some(b)) = (rec.step, real[k].step) {
+                assert!(
+                    (3..5).all(|j| (a.q1[j] - b.q1[j]).abs() < 1e-9),
+                    "line {}: the control turns the rotary axes elsewhere",
+                    i + 1
+                );
+            }
+            k += 1;
+            continue;
+        };
+        let (target, target_o) = setup.forward(step.q1, step.length);
+        // The written pieces of this move, then its own line.
+        let mut pieces: Vec<Step> = Vec::new();
+        loop {
+            let w = real
+                .get(k)
+                .unwrap_or_else(|| panic!("line {} is missing from the output", i + 1));
+            k += 1;
+            let s = w.step.unwrap_or_else(|| {
+                panic!(
+                    "line {}: the output has `{}` where the program moves",
+                    i + 1,
+                    w.text
+                )
+            });
+            assert_eq!(s.kind, step.kind, "line {}: {}", i + 1, w.text);
+            pieces.push(s);
+            if (actual(s.q1, s.length).p - target).norm() <= MATCH {
+                break;
+            }
+            assert!(
+                !step.rapid && pieces.len() < 2000,
+                "line {}: no written block ends where it does (or a rapid was split)",
+                i + 1
+            );
+        }
+        if pieces.len() > 1 {
+            f.inserted += pieces.len() - 1;
+            f.split += 1;
+        }
+        // The block end.
+        let last = pieces.last().unwrap();
+        let real_end = actual(last.q1, last.length);
+        let off = (real_end.p - target).norm();
+        f.ends += 1;
+        let bound = if step.kind == Kind::Axes {
+            f.end_axes = f.end_axes.max(off);
+            END_AXES
+        } else {
+            f.end = f.end.max(off);
+            END
+        };
+        if off > bound {
+            f.fault(format!(
+                "line {}: the block end is {:.3} µm off",
+                i + 1,
+                off * 1e3
+            ));
+        }
+        if step.kind != Kind::Plane && step.q1[3].abs() > SINGULAR_TILT {
+            let d = angle_between(&real_end.o, &target_o);
+            f.end_direction = f.end_direction.max(d);
+            if d > END_DIRECTION {
+                f.fault(format!(
+                    "line {}: the tool direction at the block end is {:.2} µrad off",
+                    i + 1,
+                    d * 1e6
+                ));
+            }
+        }
+        if step.rapid {
+            continue;
+        }
+        // The path of the move at feed.
+        match step.kind {
+            Kind::Plane => {
+                let a = setup.forward(step.q0, step.length).0;
+                let b = target;
+                for piece in &pieces {
+                    let dev = |q: Axes| from_segment(actual(q, piece.length).p, a, b);
+                    let floor = dev(piece.q0) + dev(piece.q1);
+                    for j in 0..=SAMPLES {
+                        let d = dev(lerp(&piece.q0, &piece.q1, j as f64 / SAMPLES as f64));
+                        f.path = f.path.max(d);
+                        let excess = d - (tol.position + floor);
+                        f.path_excess = f.path_excess.max(excess);
+                        if excess > 0.0 {
+                            f.fault(format!(
+                                "line {}: the path strays {:.3} µm (floor {:.3} µm)",
+                                i + 1,
+                                d * 1e3,
+                                floor * 1e3
+                            ));
+                        }
+                    }
+                }
+            }
+            Kind::Tcp => {
+                // The programmed path: the tip on its line, the rotary axes in
+                // proportion; a written piece's place on it is where its real tip lies.
+                let (n0, n1) = (step.tip0, step.tip1);
+                let d = n1 - n0;
+                let (r0, r1) = ([step.q0[3], step.q0[4]], [step.q1[3], step.q1[4]]);
+                let place = |s: &Step, u: f64| -> f64 {
+                    if d.norm() > 1e-6 {
+                        let p = actual(s.q1, s.length).p;
+                        ((p - n0).dot(&d) / d.norm_squared()).clamp(0.0, 1.0) * u
+                    } else {
+                        let dr = [r1[0] - r0[0], r1[1] - r0[1]];
+                        let w = [s.q1[3] - r0[0], s.q1[4] - r0[1]];
+                        ((w[0] * dr[0] + w[1] * dr[1]) / (dr[0] * dr[0] + dr[1] * dr[1]))
+                            .clamp(0.0, 1.0)
+                            * u
+                    }
+                };
+                let at = |s: f64| {
+                    let r = lerp(&r0, &r1, s);
+                    (n0 + d * s, setup.direction(r[0], r[1]), r[0])
+                };
+                let mut s0 = 0.0;
+                for (j, piece) in pieces.iter().enumerate() {
+                    let s1 = if j + 1 == pieces.len() {
+                        1.0
+                    } else {
+                        place(piece, 1.0)
+                    };
+                    let real_at = |u: f64| {
+                        let tip = piece.tip0 + (piece.tip1 - piece.tip0) * u;
+                        let r = lerp(
+                            &[piece.q0[3], piece.q0[4]],
+                            &[piece.q1[3], piece.q1[4]],
+                            u,
+                        );
+                        actual(setup.linear_axes(tip, r[0], r[1], piece.length), piece.length)
+                    };
+                    let dev = |u: f64| {
+                        let (p, o, t) = at(s0 + (s1 - s0) * u);
+                        let real = real_at(u);
+                        let dd = if t.abs() > SINGULAR_TILT {
+                            angle_between(&real.o, &o)
+                        } else {
+                            0.0
+                        };
+                        ((real.p - p).norm(), dd)
+                    };
+                    let (p0, d0) = dev(0.0);
+                    let (p1, d1) = dev(1.0);
+                    let (floor, floor_d) = (p0 + p1, d0 + d1);
+                    for m in 0..=SAMPLES {
+                        let (dp, dd) = dev(m as f64 / SAMPLES as f64);
+                        f.path = f.path.max(dp);
+                        f.path_direction = f.path_direction.max(dd);
+                        let excess = dp - (tol.position + floor);
+                        let excess_d = dd - (tol.direction + floor_d);
+                        f.path_excess = f.path_excess.max(excess);
+                        f.path_direction_excess = f.path_direction_excess.max(excess_d);
+                        if excess > 0.0 || excess_d > 0.0 {
+                            f.fault(format!(
+                                "line {}: the path strays {:.3} µm, {:.2} µrad (floor {:.3} µm, {:.2} µrad)",
+                                i + 1,
+                                dp * 1e3,
+                                dd * 1e6,
+                                floor * 1e3,
+                                floor_d * 1e6
+                            ));
+                        }
+                    }
+                    s0 = s1;
+                }
+            }
+            Kind::Axes | Kind::Turn => {
+                panic!("line {}: a feed move in machine axes is not in these fixtures", i + 1)
+            }
+        }
+    }
+    assert_eq!(k, real.len(), "the output has lines after the program's");
+    f
+}
+
+/// The block numbers of a TNC program run on by one from the first.
+fn assert_consecutive(name: &str, program: &str) {
+    let mut expected: Option<u64> = None;
+    for (i, line) in program.lines().enumerate() {
+        let (number, rest) = split_number(line);
+        let Some(n) = number else {
+            // Only a cycle's continued lines go without a number.
+            assert!(
+                rest.starts_with(' ') || rest.is_empty(),
+                "{name}:{}: no block number: {line}",
+                i + 1
+            );
+            continue;
+        };
+        if let Some(e) = expected {
+            assert_eq!(n, e, "{name}:{}: block numbers jump: {line}", i + 1);
+        }
+        expected = Some(n + 1);
+    }
+}
+
+/// The comments hyperMILL writes before a PLANE: `; A-90 C270`, `; B180 C270`.
+fn angle_comment(rest: &str) -> Option<Vec<(char, f64)>> {
+    let text = rest.trim().strip_prefix(';')?;
+    let mut angles = Vec::new();
+    for w in text.split_whitespace() {
+        let (c, value) = letter(w);
+        if !"ABC".contains(c) {
+            return None;
+        }
+        angles.push((c, value.parse().ok()?));
+    }
+    (angles.len() >= 2).then_some(angles)
+}
+
+/// A comment line that only separates (`; -------`).
+fn is_separator(rest: &str) -> bool {
+    rest.trim()
+        .strip_prefix(';')
+        .is_some_and(|t| t.chars().all(|c| c == '-' || c.is_whitespace()))
+}
+
+/// Each `PLANE SPATIAL` of a program with the angles hyperMILL's comment gives for it:
+/// the nearest comment line before it, within 3 lines, the separators and the datum shift
+/// (`CYCL DEF 7.x`, which hyperMILL writes between comment and PLANE) not counted; a
+/// statement in between, or a comment of another form, gives none. (1-based line, angles.)
+fn commented_planes(program: &str) -> Vec<(usize, Vec<(char, f64)>)> {
+    let lines: Vec<&str> = program.lines().map(|l| split_number(l).1).collect();
+    let mut found = Vec::new();
+    for (i, rest) in lines.iter().enumerate() {
+        if !rest.trim_start().starts_with("PLANE SPATIAL") {
+            continue;
+        }
+        let mut counted = 0;
+        for before in lines[..i].iter().rev() {
+            let t = before.trim_start();
+            if is_separator(before) || t.starts_with("CYCL DEF 7.") {
+                continue;
+            }
+            counted += 1;
+            if counted > 3 || !(t.starts_with(';') || t.starts_with('*')) {
+                break;
+            }
+            if let Some(angles) = angle_comment(before) {
+                found.push((i + 1, angles));
+            }
+            break;
+        }
+    }
+    found
+}
+
+/// The rotary positions nccomp reports for the PLANE at `line`: its entry at that line
+/// (TURN) or the first after it (the STAY positioning block), before the next PLANE.
+fn reported_for(
+    summary: &Summary,
+    program: &str,
+    line: usize,
+) -> Option<Vec<(String, f64)>> {
+    let next_plane = program
+        .lines()
+        .enumerate()
+        .skip(line)
+        .find(|(_, l)| split_number(l).1.trim_start().starts_with("PLANE"))
+        .map_or(usize::MAX, |(i, _)| i + 1);
+    summary
+        .plane_positions
+        .iter()
+        .find(|(l, _)| *l >= line && *l < next_plane)
+        .map(|(_, axes)| axes.clone())
+}
+
+/// `reported` holds exactly the comment's axes at its angles (modulo a turn).
+fn assert_angles(what: &str, comment: &[(char, f64)], reported: &[(String, f64)]) {
+    assert_eq!(
+        comment.len(),
+        reported.len(),
+        "{what}: comment {comment:?}, nccomp {reported:?}"
+    );
+    for (c, angle) in comment {
+        let (_, value) = reported
+            .iter()
+            .find(|(name, _)| name.starts_with(*c))
+            .unwrap_or_else(|| panic!("{what}: nccomp turns no axis {c}: {reported:?}"));
+        assert!(
+            same_angle(*value, *angle, 1e-6),
+            "{what}: the comment says {c}{angle}, nccomp turns it to {value}"
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// The tests.
+
+#[test]
+fn plane_angles_match_hypermill_comments() {
+    let cam = root().join("../shared/corpus/cam");
+    if !cam.is_dir() {
+        eprintln!("note: {} is not there; test skipped", cam.display());
+        return;
+    }
+    let mut checked = 0;
+    for (program, machine, errors) in [
+        ("hm_dmu85_W5270NS01061A6.h", "dmu85_ac", "dmu85_ac"),
+        ("hm_dmu100p_W5270NS01001B3.h", "dmu100p_bc", "bc_head_table"),
+        ("hm_trimill_W5269NS01002A1.h", "trimill_bc", "bc_head_table"),
+    ] {
+        let path = cam.join(program);
+        if !path.is_file() {
+            eprintln!("note: {program} is not there; skipped");
+            continue;
+        }
+        // Latin-1 comments: read bytes, look at them lossily.
+        let src = std::fs::read(&path).unwrap();
+        let text = String::from_utf8_lossy(&src).into_owned();
+        let dir = root().join("fixtures/corpus");
+        let m = machine_file::load(&dir.join(format!("{machine}.machine.toml"))).unwrap();
+        let e = error_file::load(&dir.join(format!("{errors}.errors.toml")), &m).unwrap();
+        let options = Options {
+            max_errors: usize::MAX,
+            ..cli_options()
+        };
+        let comp = Compensator::new(&m, &e, options).unwrap();
+        let mut out = Vec::new();
+        // Refused elsewhere (drilling cycles) perhaps: the planes are reported anyway.
+        let (summary, refused) = comp.run_all(&src, program, &mut out);
+        for d in &refused {
+            eprintln!("{program}: refused: {d}");
+        }
+        for (line, angles) in commented_planes(&text) {
+            let what = format!("{program}:{line}");
+            let reported = reported_for(&summary, &text, line).unwrap_or_else(|| {
+                panic!(
+                    "{what}: nccomp reports no rotary positions for this PLANE: {:?}",
+                    summary.plane_positions
+                )
+            });
+            assert_angles(&what, &angles, &reported);
+            eprintln!("{what}: {angles:?} = nccomp's {reported:?}");
+            checked += 1;
+        }
+    }
+    assert!(checked >= 2, "only {checked} commented PLANE statements checked");
+}
+
+/// A fixture: program, machine file, error file.
+const FIXTURES: [(&str, &str, &str); 3] = [
+    ("tnc_ac_trunnion.h", "ac_trunnion", "ac_trunnion"),
+    ("tnc_bc_head_table.h", "bc_head_table", "bc_head_table"),
+    ("tnc_head_head.h", "head_head", "head_head"),
+];
+
+fn compensate(setup: &Setup, program: &str, name: &str) -> (String, Summary) {
+    let comp = Compensator::new(&setup.machine, &setup.errors, cli_options()).unwrap();
+    let mut out = Vec::new();
+    let summary = comp
+        .run(program.as_bytes(), name, &mut out)
+        .unwrap_or_else(|e| panic!("{name} is refused: {e}"));
+    (String::from_utf8(out).unwrap(), summary)
+}
+
+#[test]
+fn the_closed_forms_are_the_machines_nominal_kinematics() {
+    for (_, machine, errors) in FIXTURES {
+        let setup = Setup::load(machine, errors);
+        let kin = Kinematics::new(&setup.machine, &ErrorModel::zero(&setup.machine), 0).unwrap();
+        let mut state = 11u64;
+        let mut rnd = |s: f64| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (2.0 * ((state >> 11) as f64 / (1u64 << 53) as f64) - 1.0) * s
+        };
+        let mut lengths: Vec<f64> = setup.machine.tool.lengths.values().copied().collect();
+        lengths.push(setup.machine.tool.length);
+        for length in lengths {
+            for _ in 0..20 {
+                let q = [rnd(200.0), rnd(200.0), rnd(200.0), rnd(100.0), rnd(400.0)];
+                let (p, o) = setup.forward(q, length);
+                let (pose, _) = kin.pose(Model::Nominal, &setup.vars(&kin, q), length);
+                assert!(
+                    (pose.p - p).norm() < 1e-9 && (pose.o - o).norm() < 1e-12,
+                    "{machine} {q:?}"
+                );
+                let back = setup.linear_axes(p, q[3], q[4], length);
+                assert!(
+                    (0..5).all(|k| (back[k] - q[k]).abs() < 1e-9),
+                    "{machine} {q:?}"
+                );
+                // The closed-form plane solution points the tool along the normal.
+                let n = setup.direction(q[3], q[4]);
+                if q[3].abs() > 1.0 && setup.tilt_travel.is_none_or(|[lo, hi]| {
+                    (lo..=hi).contains(&q[3].abs()) && (lo..=hi).contains(&-q[3].abs())
+                }) {
+                    for positive in [true, false] {
+                        let [t, c] = setup.plane_rotaries(n, [0.0, q[4] + 30.0], positive);
+                        assert!((setup.direction(t, c) - n).norm() < 1e-12);
+                        assert_eq!(t >= 0.0, positive);
+                        assert!((c - q[4] - 30.0).abs() <= 180.0 + 1e-9);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// One fixture through nccomp and the independent evaluation.
+fn check_fixture(program: &str, machine: &str, errors: &str) {
+    let setup = Setup::load(machine, errors);
+    let src = fixture(program);
+    let (written, summary) = compensate(&setup, &src, program);
+    assert_consecutive(program, &written);
+    // The rotary positions of each plane: the control's (closed form here), nccomp's
+    // report, and the fixture's comment agree.
+    let recs = run(&setup, &src);
+    let mut planes = 0;
+    for (i, rec) in recs.iter().enumerate() {
+        let Some(step) = rec.step.filter(|s| s.kind == Kind::Turn) else {
+            continue;
+        };
+        let line = i + 1;
+        let (_, reported) = summary
+            .plane_positions
+            .iter()
+            .find(|(l, _)| *l == line)
+            .unwrap_or_else(|| panic!("{program}:{line}: no plane position reported"));
+        let expected = [
+            (setup.tilt, step.q1[3]),
+            ('C', step.q1[4]),
+        ];
+        assert_angles(&format!("{program}:{line}"), &expected, reported);
+        planes += 1;
+    }
+    assert_eq!(planes, summary.plane_positions.len(), "{program}");
+    let commented = commented_planes(&src);
+    assert_eq!(
+        commented.len(),
+        recs.iter().filter(|r| r.is_plane).count(),
+        "{program}: a comment before every PLANE"
+    );
+    for (line, angles) in &commented {
+        let reported = reported_for(&summary, &src, *line).unwrap();
+        assert_angles(&format!("{program}:{line}"), angles, &reported);
+    }
+    // As programmed, the real machine misses: the evaluation can fail.
+    let before = evaluate(&setup, &src, &src);
+    assert!(
+        before.end > 20.0 * END,
+        "{program}: uncompensated block ends only {:.3} µm off",
+        before.end * 1e3
+    );
+    let f = evaluate(&setup, &src, &written);
+    eprintln!(
+        "{program}: {} block ends within {:.3} µm in planes and under TCP, {:.3} µm in machine axes (as programmed {:.3} µm); direction at written rotary words within {:.2} µrad; path within {:.3} µm (tolerance {:.3} µm plus floor, worst excess {:.3} µm), direction along TCP moves within {:.2} µrad (worst excess {:.2} µrad); {} moves split, {} blocks inserted; {} planes",
+        f.ends,
+        f.end * 1e3,
+        f.end_axes * 1e3,
+        before.end * 1e3,
+        f.end_direction * 1e6,
+        f.path * 1e3,
+        cli_options().path.unwrap().position * 1e3,
+        f.path_excess * 1e3,
+        f.path_direction * 1e6,
+        f.path_direction_excess * 1e6,
+        f.split,
+        f.inserted,
+        planes,
+    );
+    assert_eq!(
+        (f.inserted, f.split),
+        (summary.blocks_added, summary.moves_split),
+        "{program}: the summary counts other splits"
+    );
+    assert!(
+        f.faults.is_empty(),
+        "{program}:\n{}\n{written}",
+        f.faults.join("\n")
+    );
+}
+
+#[test]
+fn a_3_plus_2_program_on_the_ac_trunnion_meets_the_contract() {
+    let (p, m, e) = FIXTURES[0];
+    check_fixture(p, m, e);
+}
+
+#[test]
+fn a_plane_and_m128_program_on_the_bc_head_table_meets_the_contract() {
+    let (p, m, e) = FIXTURES[1];
+    check_fixture(p, m, e);
+}
+
+#[test]
+fn a_tcpm_and_plane_program_on_the_head_head_meets_the_contract() {
+    let (p, m, e) = FIXTURES[2];
+    check_fixture(p, m, e);
+}
+
+#[test]
+fn with_the_zero_model_each_fixture_comes_back_byte_for_byte() {
+    for (program, machine, errors) in FIXTURES {
+        let mut setup = Setup::load(machine, errors);
+        setup.errors = ErrorModel::zero(&setup.machine);
+        let src = fixture(program);
+        assert_consecutive(program, &src);
+        let (out, summary) = compensate(&setup, &src, program);
+        assert!(summary.zero_model, "{program}");
+        assert_eq!(out, src, "{program}");
+    }
+}
+
+/// The compensated fixture with its summary, as `nccomp compensate` writes it by default.
+fn snapshot(index: usize) -> String {
+    let (program, machine, errors) = FIXTURES[index];
+    let setup = Setup::load(machine, errors);
+    let (out, summary) = compensate(&setup, &fixture(program), program);
+    assert_consecutive(program, &out);
+    format!("{summary}\n----\n{out}")
+}
+
+#[test]
+fn snapshot_tnc_ac_trunnion() {
+    insta::assert_snapshot!(snapshot(0));
+}
+
+#[test]
+fn snapshot_tnc_bc_head_table() {
+    insta::assert_snapshot!(snapshot(1));
+}
+
+#[test]
+fn snapshot_tnc_head_head() {
+    insta::assert_snapshot!(snapshot(2));
+}
