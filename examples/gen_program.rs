@@ -4,7 +4,8 @@
 //!     cargo run --release --example gen_program -- 17000000 > big.nc   # ≈ 1 GB
 //!
 //! The argument is the number of G1 blocks (default 100,000); the program goes to standard
-//! output.
+//! output. With `--tnc` after it, the same moves come as a Heidenhain TNC program (`L`
+//! blocks).
 
 #[path = "../benches/common/program.rs"]
 mod program;
@@ -22,7 +23,13 @@ fn main() -> std::process::ExitCode {
     };
     let stdout = std::io::stdout().lock();
     let mut out = std::io::BufWriter::with_capacity(1 << 20, stdout);
-    match program::write_program(blocks, &mut out).and_then(|()| out.flush()) {
+    let tnc = std::env::args().nth(2).as_deref() == Some("--tnc");
+    let written = if tnc {
+        program::write_tnc_program(blocks, &mut out)
+    } else {
+        program::write_program(blocks, &mut out)
+    };
+    match written.and_then(|()| out.flush()) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("gen_program: {e}");

@@ -66,6 +66,19 @@ pub(super) struct PassArgs {
     /// The tool direction's tolerance along the path, in µrad.
     #[arg(long, value_name = "URAD", default_value_t = 10.0)]
     angular_tolerance: f64,
+    /// The programs' language: `auto` reads each program's from its text (a Heidenhain
+    /// program starts with a numbered `BEGIN PGM`), `iso` G-code, `heidenhain` TNC
+    /// conversational.
+    #[arg(long, value_name = "DIALECT", default_value = "auto")]
+    dialect: DialectArg,
+}
+
+/// `--dialect`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum DialectArg {
+    Auto,
+    Iso,
+    Heidenhain,
 }
 
 /// `--tolerance`: a distance in mm, or `off`.
@@ -170,6 +183,11 @@ impl PassArgs {
                     direction: v * 1e-6,
                     ..Default::default()
                 }),
+            dialect: match self.dialect {
+                DialectArg::Auto => None,
+                DialectArg::Iso => Some(crate::nc::Dialect::Iso),
+                DialectArg::Heidenhain => Some(crate::nc::Dialect::Heidenhain),
+            },
             ..Options::default()
         })
     }

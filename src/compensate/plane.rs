@@ -58,9 +58,14 @@ impl Pass<'_> {
                 ),
             ));
         }
-        let q = self
-            .plane_rotaries(&plane, state)
-            .map_err(|why| cx.refuse(col, format!("G53.1 cannot be compensated: {why}")))?;
+        let q = self.plane_rotaries(&plane, state).map_err(|why| {
+            let what = if state.modal.dialect == crate::nc::Dialect::Heidenhain {
+                "turning the rotary axes to the PLANE"
+            } else {
+                "G53.1"
+            };
+            cx.refuse(col, format!("{what} cannot be compensated: {why}"))
+        })?;
         out.summary.plane_positions.push((
             cx.line.number,
             (0..self.kin.len())

@@ -143,6 +143,11 @@ impl Predictor {
         }
     }
 
+    /// Read program `src` (its whole text) in `dialect`.
+    pub(super) fn program(&mut self, dialect: nc::Dialect, src: &[u8]) {
+        self.modal.for_program(dialect, src);
+    }
+
     /// Solve ahead for the lines of `chunk` (whose first line is number `before + 1`),
     /// appending to `out`, leaving about `share` of the solves to the pass.
     pub(super) fn chunk(
@@ -167,8 +172,7 @@ impl Predictor {
                 return;
             };
             let pass = &comp.passes[index];
-            nc::parse_line(line.content, &mut self.tokens);
-            crate::program::params::substitute(line.content, &mut self.tokens, &self.modal.params);
+            crate::program::tokenize(&self.modal, line.content, &mut self.tokens);
             let Ok(moves) =
                 comp.reader
                     .read(&line, &self.tokens, &mut self.modal, &at, &mut self.motion)

@@ -243,6 +243,7 @@ impl Compensator<'_> {
         output: &mut impl Write,
         output_name: &str,
         pass: &mut Run<'_, '_>,
+        program: Option<(nc::Dialect, &[u8])>,
     ) -> crate::Result<()> {
         use std::sync::mpsc::sync_channel;
         use std::time::{Duration, Instant};
@@ -255,6 +256,9 @@ impl Compensator<'_> {
             let (to_pass, done) = sync_channel::<ToPass>(1);
             scope.spawn(move || {
                 let mut predictor = Predictor::new(self);
+                if let Some((dialect, src)) = program {
+                    predictor.program(dialect, src);
+                }
                 let mut idle_since = Instant::now();
                 for (bytes, before, offset, mut ahead, share) in work {
                     let waited = idle_since.elapsed();
@@ -550,19 +554,47 @@ impl Compensator<'_> {
             while let Some((chunk, _, _)) = chunks.next().map_err(read_error)? {
                 src.extend_from_slice(chunk);
             }
-            let mut out = Vec::with_capacity(src.len() + src.len() / 8);
-            let (summary, refused) = self.run_all(&src, input_name, &mut out);
-            if refused.is_empty() {
-                output.write_all(&out).map_err(write_error)?;
+            let dialect = self.dialect_of(&src);
+            let mut pass = Run::new(self, false);
+            pass.program(dialect, &src);
+            let mut chunks = Chunks::new(&src[..]);
+            if self.threads > 1 {
+                self.run_ahead(
+                    &mut chunks,
+                    input_name,
+                    &mut output,
+                    output_name,
+                    &mut pass,
+                    Some((dialect, &src)),
+                )?;
+            } else {
+                let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
+                while let Some((chunk, before, offset)) = chunks.next().map_err(read_error)? {
+                    let go_on = pass.chunk(chunk, before, offset, input_name, &mut out);
+                    output.write_all(&out).map_err(write_error)?;
+                    out.clear();
+                    if !go_on {
+                        break;
+                    }
+                }
+            }
+            if !pass.failed() {
                 output.flush().map_err(write_error)?;
             }
-            return Self::refusing((summary, refused));
+            return pass.finish();
         }
         chunks.unread();
         let mut pass = Run::new(self, false);
         let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
         if self.threads > 1 {
-            self.run_ahead(&mut chunks, input_name, &mut output, output_name, &mut pass)?;
+            self.run_ahead(
+                &mut chunks,
+                input_name,
+                &mut output,
+                output_name,
+                &mut pass,
+                None,
+            )?;
         } else {
             while let Some((chunk, before, offset)) = chunks.next().map_err(read_error)? {
                 let go_on = pass.chunk(chunk, before, offset, input_name, &mut out);
