@@ -17,7 +17,7 @@ use crate::kinematics::{MAX_AXES, Solution};
 use crate::nc::edit::Editor;
 use crate::nc::number::write_fixed;
 use crate::program::arc::{ArcPath, arc_path, plane_letters};
-use crate::program::gcode;
+use crate::program::{gcode, heidenhain};
 use std::fmt::Write;
 
 /// Largest distance (mm) of a chord from its arc.
@@ -112,7 +112,11 @@ impl Mode for ArcMode {
         // Kept as an arc where what the controller makes of the compensated words stays
         // within the path tolerance (the default one under --tolerance off).
         let tolerance = pass.options.path.unwrap_or_default();
-        if let Some(kept) = pass.keep_arc(&path, end, cx, centre_letters, state, &tolerance) {
+        // A TNC arc's centre is its CC block, which the control has read already: the arc
+        // is not kept.
+        let tnc = state.modal.dialect == crate::nc::Dialect::Heidenhain;
+        if !tnc && let Some(kept) = pass.keep_arc(&path, end, cx, centre_letters, state, &tolerance)
+        {
             self.kept = Some(kept);
             return Ok(());
         }
@@ -136,6 +140,7 @@ impl Mode for ArcMode {
         let mut editor = cx.editor(out.edits);
         let style = editor.style();
         let numbers = editor.inserted_numbers(state.last_n, pieces - 1);
+        let tnc = state.modal.dialect == crate::nc::Dialect::Heidenhain;
         let ending = Editor::ending(cx.line.ending);
         let f_word = cx.word(b'F');
         let mut text = String::new();
@@ -144,10 +149,13 @@ impl Mode for ArcMode {
             pass.check_travel(&q, col, cx)?;
             let (sol, _) = pass.solve(&q, hold, cx, state)?;
             let mut words: Vec<String> = Vec::new();
-            if let Some(number) = &numbers[k - 1] {
+            if tnc {
+                words =
+                    heidenhain::inserted_start(cx.line.content, cx.tokens, state.renumber, k - 1);
+            } else if let Some(number) = &numbers[k - 1] {
                 words.push(style.word(b'N', number));
             }
-            if k == 1 {
+            if k == 1 && !tnc {
                 // The block's own modal words, so the first piece runs as the block would.
                 for ti in gcode::carried_words(cx.tokens, cx.motion.arc_code) {
                     words.push(String::from_utf8_lossy(editor.text(ti)).into_owned());
@@ -155,6 +163,11 @@ impl Mode for ArcMode {
                 words.push(gcode::linear_code(&style));
             }
             pass.piece_words(&sol.q, state, &style, &mut words);
+            if tnc {
+                for i in heidenhain::carried_words(cx.tokens) {
+                    words.push(String::from_utf8_lossy(editor.text(i)).into_owned());
+                }
+            }
             if let Some(f) = f_word
                 && let Some((value, decimals)) = editor.number(f)
             {
@@ -208,6 +221,22 @@ impl Mode for ArcMode {
 /// modal arc gets a G1 unless inserted pieces have set it already.
 pub(super) fn straighten(cx: &Cx<'_, '_>, out: &mut Out<'_>, pieces_inserted: bool) {
     let mut editor = cx.editor(out.edits);
+    if cx.motion.centre.is_some() || cx.motion.polar.is_some() || is_tnc_radius_arc(cx) {
+        // A TNC arc (C, CR, CP) becomes an L block: its keyword, its direction, its radius
+        // and its polar angle go.
+        if let Some(k) = cx.motion.arc_code {
+            editor.replace_token(k, b"L");
+        }
+        for (i, t) in cx.tokens.iter().enumerate() {
+            let text = &cx.line.content[t.span.clone()];
+            let gone = t.kind == crate::nc::TokenKind::Other
+                && (text.starts_with(b"DR") || text.starts_with(b"IPA") || text.starts_with(b"PA"));
+            if gone || cx.motion.arc_words[3] == Some(i) {
+                editor.remove_word(i);
+            }
+        }
+        return;
+    }
     let first = cx
         .motion
         .axis_words
@@ -220,6 +249,17 @@ pub(super) fn straighten(cx: &Cx<'_, '_>, out: &mut Out<'_>, pieces_inserted: bo
     for i in cx.motion.arc_words.iter().flatten() {
         editor.remove_word(*i);
     }
+}
+
+/// A TNC `CR` block (its keyword is `CR`).
+fn is_tnc_radius_arc(cx: &Cx<'_, '_>) -> bool {
+    cx.motion
+        .arc_code
+        .is_some_and(|k| &cx.line.content[cx.tokens[k].span.clone()] == b"CR")
+        && !cx
+            .tokens
+            .iter()
+            .any(|t| matches!(&t.kind, crate::nc::TokenKind::Word(w) if w.letter == b'G'))
 }
 
 impl Pass<'_> {

@@ -367,9 +367,25 @@ impl Pass<'_> {
         let (neighbour, is_after) = match (after, before) {
             (Some((_, i)), _) => (i, true),
             (None, Some((_, i))) => (i, false),
+            // A TNC block's words follow its keyword (`L`, `C` …).
+            (None, None) if state_is_tnc(cx) => {
+                match crate::program::heidenhain::keyword(cx.line.content, cx.tokens) {
+                    Some(k) => (k, true),
+                    None => (0, false),
+                }
+            }
             (None, None) => (0, false),
         };
         cx.editor(out.edits)
             .insert_word_by(neighbour, is_after, self.letter(v), number);
     }
+}
+
+/// The block is a TNC block: it starts with a block number and a keyword.
+fn state_is_tnc(cx: &Cx<'_, '_>) -> bool {
+    crate::program::heidenhain::block_number(cx.line.content, cx.tokens).is_some()
+        && !cx
+            .tokens
+            .iter()
+            .any(|t| matches!(&t.kind, crate::nc::TokenKind::Word(w) if w.letter == b'G' || w.letter == b'N'))
 }

@@ -278,6 +278,14 @@ impl<'a> Editor<'a> {
         });
     }
 
+    /// Replace the bytes of token `i` (a keyword) by `text`.
+    pub fn replace_token(&mut self, i: usize, text: &[u8]) {
+        self.edits.push(Edit {
+            at: self.tokens[i].span.clone(),
+            text: text.to_vec(),
+        });
+    }
+
     /// Remove the word at token `i` and the space before it.
     pub fn remove_word(&mut self, i: usize) {
         let t = &self.tokens[i];

@@ -236,12 +236,32 @@ pub fn arc_path(
             *x = axes.unit(v, modal).to_mm(value);
         }
     }
+    let (centre, absolute) = match motion.centre {
+        // A TNC arc about its CC.
+        Some([a, b]) => (Centre::Offsets(Some(a), Some(b)), true),
+        None => (
+            centre_words(tokens, motion, centre_letters, modal),
+            modal.arc_absolute,
+        ),
+    };
+    if let (Some((angle, incremental)), Some([ca, cb])) = (motion.polar, motion.centre) {
+        // A TNC polar arc: the end on the circle through the start about CC.
+        let (da, db) = (start[va] - ca, start[vb] - cb);
+        let r = da.hypot(db);
+        let th = if incremental {
+            db.atan2(da) + angle.to_radians()
+        } else {
+            angle.to_radians()
+        };
+        end[va] = ca + r * th.cos();
+        end[vb] = cb + r * th.sin();
+    }
     let c = circle(
         (start[va], start[vb]),
         (end[va], end[vb]),
         clockwise,
-        centre_words(tokens, motion, centre_letters, modal),
-        modal.arc_absolute,
+        centre,
+        absolute,
     )?;
     Ok(ArcPath {
         va,

@@ -47,6 +47,10 @@ pub struct Tnc {
     pub defining: Option<CycleDef>,
     /// Q120–Q122 hold the angles of the PLANE in force, set with STAY and not yet used.
     pub plane_angles: bool,
+    /// The circle centre (pole) of the last CC: its plane (0 X-Y, 1 Z-X, 2 Y-Z, as
+    /// [`super::Modal::plane`]) and its two coordinates in that plane's order (program
+    /// units).
+    pub pole: Option<(u8, [f64; 2])>,
     /// The program's labels.
     pub labels: Arc<Labels>,
     /// How deep in label calls the block being read is.
@@ -290,6 +294,11 @@ fn significant(content: &[u8], tokens: &[Token]) -> Vec<usize> {
     sig
 }
 
+/// The token of the block's statement keyword (`L`, `CP` …), if it has one.
+pub fn keyword(content: &[u8], tokens: &[Token]) -> Option<usize> {
+    significant(content, tokens).first().copied()
+}
+
 /// The token of the block number, if the line has one.
 pub fn block_number(content: &[u8], tokens: &[Token]) -> Option<usize> {
     tokens
@@ -323,6 +332,10 @@ struct LWords {
     call: Option<usize>,
     /// Rotary words given by Q120–Q122 after PLANE … STAY.
     plane_words: Vec<(usize, usize, u32)>,
+    /// M140: a retraction along the tool axis.
+    retract: Option<usize>,
+    /// Its `MB MAX`.
+    to_limit: bool,
 }
 
 impl Reader<'_> {
@@ -480,19 +493,17 @@ impl Reader<'_> {
             "BLK" | "LBL" | "STOP" => Ok(false),
             "TOOL" => self.tool(content, tokens, &sig, modal, at).map(|()| false),
             "L" => self.straight(content, tokens, &sig, modal, tnc, at, out),
-            "CC" => Err(at(
+            "CC" => self
+                .pole(content, tokens, &sig, modal, tnc, at)
+                .map(|()| false),
+            "C" | "CR" | "CP" => self.arc(content, tokens, &sig, modal, tnc, at, out),
+            "CT" | "LP" | "RND" | "CHF" | "LN" | "SPL" | "CTP" | "LCT" => Err(at(
                 col(0),
-                "circle centres (CC) and arcs (C, CR, CT) are not compensated in TNC programs yet: expected straight moves (L)".into(),
+                format!(
+                    "{} blocks (tangential arcs, polar lines, corners, vectors, splines) are not compensated in TNC programs: their geometry depends on the blocks around them (expected L, C, CR or CP)",
+                    word(0)
+                ),
             )),
-            "C" | "CR" | "CT" | "CP" | "LP" | "RND" | "CHF" | "LN" | "SPL" | "CTP" | "LCT" => {
-                Err(at(
-                    col(0),
-                    format!(
-                        "{} blocks (arcs, polar moves, corners, vectors, splines) are not compensated in TNC programs yet: expected straight moves (L)",
-                        word(0)
-                    ),
-                ))
-            }
             "CYCL" => self.cycle(number, content, tokens, &sig, modal, tnc, at, out),
             "PLANE" => self.plane(content, tokens, &sig, modal, tnc, at, out),
             "FUNCTION" => self.function(content, tokens, &sig, modal, at),
@@ -523,6 +534,250 @@ impl Reader<'_> {
                 ),
             )),
         }
+    }
+
+    /// `CC X… Y…`: the circle centre (pole) in the plane of its two coordinates.
+    fn pole(
+        &self,
+        content: &[u8],
+        tokens: &[Token],
+        sig: &[usize],
+        modal: &Modal,
+        tnc: &mut Tnc,
+        at: At<'_>,
+    ) -> Result<(), Diagnostic> {
+        let mut xyz: [Option<f64>; 3] = [None; 3];
+        for &i in &sig[1..] {
+            let t = &tokens[i];
+            match &t.kind {
+                TokenKind::Word(w) if matches!(w.letter, b'X' | b'Y' | b'Z') => match w.value {
+                    Value::Number { value, .. } if value.abs() <= MAX_WORD => {
+                        xyz[(w.letter - b'X') as usize] = Some(value);
+                    }
+                    _ => {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "`{}`: the circle centre is decided at run time (expected a number)",
+                                text(content, t)
+                            ),
+                        ));
+                    }
+                },
+                _ => {
+                    return Err(at(
+                        t.span.start,
+                        format!(
+                            "`{}` in CC cannot be compensated (expected two of X, Y, Z with numbers; incremental and polar centres are not followed)",
+                            text(content, t)
+                        ),
+                    ));
+                }
+            }
+        }
+        let _ = modal;
+        tnc.pole = Some(match xyz {
+            [Some(x), Some(y), None] => (0, [x, y]),
+            [Some(x), None, Some(z)] => (1, [z, x]),
+            [None, Some(y), Some(z)] => (2, [y, z]),
+            _ => {
+                return Err(at(
+                    tokens[sig[0]].span.start,
+                    "CC needs the centre's two coordinates in the plane of the arc (X and Y, Z and X, or Y and Z)".into(),
+                ));
+            }
+        });
+        Ok(())
+    }
+
+    /// `C X… Y… DR±` (about the pole), `CR X… Y… R± DR±`, `CP PA|IPA… DR±` (about the pole).
+    #[allow(clippy::too_many_arguments)]
+    fn arc(
+        &self,
+        content: &[u8],
+        tokens: &[Token],
+        sig: &[usize],
+        modal: &mut Modal,
+        tnc: &mut Tnc,
+        at: At<'_>,
+        out: &mut BlockMotion,
+    ) -> Result<bool, Diagnostic> {
+        let kind = text(content, &tokens[sig[0]]);
+        let col0 = tokens[sig[0]].span.start;
+        let axes = &self.chains[modal.chain];
+        if modal.tcp || modal.working_plane.is_some() {
+            return Err(at(
+                col0,
+                format!(
+                    "{kind} arcs under a tilted working plane or tool-centre-point control are not compensated in TNC programs (expected L moves there)"
+                ),
+            ));
+        }
+        let (plane, centre) = match kind {
+            "CR" => (0, None),
+            _ => match tnc.pole {
+                Some((plane, c)) => (plane, Some(c)),
+                None => {
+                    return Err(at(
+                        col0,
+                        format!(
+                            "{kind} needs a circle centre, and the program has given none (expected CC before it)"
+                        ),
+                    ));
+                }
+            },
+        };
+        let letters = match plane {
+            0 => [b'X', b'Y'],
+            1 => [b'Z', b'X'],
+            _ => [b'Y', b'Z'],
+        };
+        let mut clockwise = None;
+        let mut words = LWords::default();
+        for &i in &sig[1..] {
+            let t = &tokens[i];
+            let raw = text(content, t);
+            match &t.kind {
+                TokenKind::Word(w) if w.letter == b'M' => {
+                    self.m_word(content, tokens, i, &mut words, modal, at)?;
+                }
+                TokenKind::Word(w) if w.letter == b'F' => {}
+                TokenKind::Word(w) if w.letter == b'R' && kind == "CR" => {
+                    if !matches!(w.value, Value::Number { value, .. } if value != 0.0 && value.abs() <= MAX_WORD)
+                    {
+                        return Err(at(
+                            t.span.start,
+                            format!("`{raw}`: expected the arc's radius as a number"),
+                        ));
+                    }
+                    out.arc_words[3] = Some(i);
+                }
+                TokenKind::Word(w) if w.letter == b'R' => {
+                    if w.value
+                        != (Value::Number {
+                            value: 0.0,
+                            decimals: 0,
+                        })
+                    {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "`{raw}` in an arc: expected R0 (radius compensation is not compensated)"
+                            ),
+                        ));
+                    }
+                }
+                TokenKind::Word(w) if letters.contains(&w.letter) && kind != "CP" => {
+                    let Some(v) = axes.linear_of(w.letter) else {
+                        return Err(at(
+                            t.span.start,
+                            format!("{} is not an axis of this machine", w.letter as char),
+                        ));
+                    };
+                    match w.value {
+                        Value::Number { value, .. } if value.abs() <= MAX_WORD => {}
+                        _ => {
+                            return Err(at(
+                                t.span.start,
+                                format!(
+                                    "`{raw}`: the arc's end is decided at run time (expected a number)"
+                                ),
+                            ));
+                        }
+                    }
+                    out.axis_words[v] = Some(i);
+                }
+                TokenKind::Word(w) => {
+                    return Err(at(
+                        t.span.start,
+                        format!(
+                            "{} in a {kind} arc cannot be compensated (expected the end's {} and {}; helices are not followed)",
+                            w.letter as char, letters[0] as char, letters[1] as char
+                        ),
+                    ));
+                }
+                _ => match raw {
+                    "DR+" => clockwise = Some(false),
+                    "DR-" => clockwise = Some(true),
+                    "FMAX" | "FAUTO" => {}
+                    "RL" | "RR" => {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "tool radius compensation ({raw}) cannot be compensated: the path depends on the tool radius at run time (expected R0)"
+                            ),
+                        ));
+                    }
+                    _ if kind == "CP" && (raw.starts_with("IPA") || raw.starts_with("PA")) => {
+                        let incremental = raw.starts_with('I');
+                        let value = &raw[if incremental { 3 } else { 2 }..];
+                        let Ok(angle) = value.parse::<f64>() else {
+                            return Err(at(
+                                t.span.start,
+                                format!("`{raw}`: expected the polar angle in degrees"),
+                            ));
+                        };
+                        if !angle.is_finite() || angle.abs() > 5000.0 {
+                            return Err(at(
+                                t.span.start,
+                                format!("`{raw}`: expected the polar angle in degrees"),
+                            ));
+                        }
+                        out.polar = Some((angle, incremental));
+                    }
+                    _ => {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "`{raw}` is not expected in a {kind} arc (expected its end, DR+ or DR-, F, R0)"
+                            ),
+                        ));
+                    }
+                },
+            }
+        }
+        let Some(clockwise) = clockwise else {
+            return Err(at(
+                col0,
+                format!("{kind} needs its direction: DR+ (counter-clockwise) or DR- (clockwise)"),
+            ));
+        };
+        if kind == "CP" && out.polar.is_none() {
+            return Err(at(col0, "CP needs its polar angle (PA or IPA)".into()));
+        }
+        if kind == "CR" && out.arc_words[3].is_none() {
+            return Err(at(col0, "CR needs its radius R".into()));
+        }
+        if words.machine.is_some()
+            || words.call.is_some()
+            || words.tcp_on
+            || words.tcp_off.is_some()
+        {
+            return Err(at(
+                col0,
+                format!(
+                    "M91, M92, M99, M128 or M129 in a {kind} arc cannot be compensated (expected them in an L block)"
+                ),
+            ));
+        }
+        if words.end {
+            tnc.end = Some((tnc.line, out.optional));
+        }
+        modal.plane = plane;
+        modal.motion = Some(Motion::Arc);
+        modal.rapid = false;
+        modal.clockwise = clockwise;
+        modal.arc_absolute = true;
+        out.centre = centre.map(|[a, b]| {
+            if modal.inch {
+                [a * super::INCH, b * super::INCH]
+            } else {
+                [a, b]
+            }
+        });
+        out.arc_code = Some(sig[0]);
+        out.kind = MoveKind::Arc { clockwise };
+        Ok(true)
     }
 
     /// `TOOL CALL n Z S… DL…`: the tool's length (the machine file's `[tool]` lengths by
@@ -700,6 +955,14 @@ impl Reader<'_> {
                         k += 1;
                     }
                     "FAUTO" | "F" => words.rapid = false,
+                    "MB" if words.retract.is_some()
+                        && sig
+                            .get(k)
+                            .is_some_and(|&j| text(content, &tokens[j]) == "MAX") =>
+                    {
+                        words.to_limit = true;
+                        k += 1;
+                    }
                     "RL" | "RR" => {
                         return Err(at(
                             at_t,
@@ -806,6 +1069,25 @@ impl Reader<'_> {
                 "M129 in a block that moves cannot be compensated (expected M129 in a block of its own)".into(),
             ));
         }
+        if let Some(i) = words.retract {
+            let at_t = tokens[i].span.start;
+            if moves || !words.to_limit {
+                return Err(at(at_t, "M140 is followed only as `L M140 MB MAX` in a block of its own (a retraction to the tool axis's travel limit)".into()));
+            }
+            if modal.working_plane.is_some() || modal.tcp {
+                return Err(at(at_t, "M140 under a tilted working plane or tool-centre-point control retracts along a tilted tool axis: not followed (expected it after PLANE RESET and M129)".into()));
+            }
+            // The tool axis goes to its travel limit: a machine position.
+            let Some(z) = axes.linear_of(b'Z') else {
+                return Err(at(
+                    at_t,
+                    "M140 retracts along Z, and this machine has no Z axis".into(),
+                ));
+            };
+            out.kind = MoveKind::Home;
+            out.homed = 1 << z;
+            return Ok(true);
+        }
         if words.machine.is_some() {
             if modal.working_plane.is_some_and(|p| !p.rotation_only) || modal.tcp {
                 return Err(at(
@@ -869,6 +1151,7 @@ impl Reader<'_> {
                 modal.tcp_vector = false;
             }
             129 => words.tcp_off = Some(i),
+            140 => words.retract = Some(i),
             code => {
                 let name = CodeName {
                     letter: b'M',

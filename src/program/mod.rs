@@ -72,6 +72,11 @@ pub struct BlockMotion {
     pub from_m92: bool,
     /// A TNC cycle call (M99, CYCL CALL): the column of the call, for messages.
     pub cycle_col: Option<usize>,
+    /// A TNC arc about a circle centre (CC): the centre in the arc plane's two axes (mm),
+    /// absolute.
+    pub centre: Option<[f64; 2]>,
+    /// A TNC polar arc (CP): its angle (degrees), incremental (IPA) or absolute (PA).
+    pub polar: Option<(f64, bool)>,
 }
 
 impl Default for BlockMotion {
@@ -85,6 +90,8 @@ impl Default for BlockMotion {
             homed: 0,
             from_m92: false,
             cycle_col: None,
+            centre: None,
+            polar: None,
         }
     }
 }
