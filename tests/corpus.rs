@@ -183,3 +183,99 @@ fn the_fanuc_family_cam_programs_compensate_or_are_refused_for_run_time_values_o
         }
     }
 }
+
+/// The block numbers of a TNC program's lines, in order (lines that start with one).
+fn block_numbers(src: &[u8]) -> Vec<u64> {
+    nc::lines(src)
+        .filter_map(|l| {
+            let t = l.content.trim_ascii_start();
+            let t = t.strip_prefix(b"/").unwrap_or(t);
+            let digits: Vec<u8> = t
+                .iter()
+                .take_while(|b| b.is_ascii_digit())
+                .copied()
+                .collect();
+            std::str::from_utf8(&digits).ok()?.parse().ok()
+        })
+        .collect()
+}
+
+#[test]
+fn the_heidenhain_cam_programs_compensate_with_consecutive_block_numbers() {
+    let cam = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus/cam");
+    if !cam.is_dir() {
+        eprintln!("note: {} is not there; test skipped", cam.display());
+        return;
+    }
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/corpus");
+    for (program, machine, errors, planes) in [
+        ("hm_dmu85_W5270NS01061A6.h", "dmu85_ac", "dmu85_ac", 1),
+        (
+            "hm_dmu100p_W5270NS01001B3.h",
+            "dmu100p_bc",
+            "bc_head_table",
+            2,
+        ),
+        (
+            "hm_trimill_W5269NS01002A1.h",
+            "trimill_bc",
+            "bc_head_table",
+            8,
+        ),
+        (
+            "hm_dmc105v_W5269NS01007B12.h",
+            "dmc105v",
+            "three_axis_tnc",
+            0,
+        ),
+        (
+            "fusion_heidenhain_contour-final-outer.h",
+            "fusion_tnc_mill",
+            "three_axis_tnc",
+            0,
+        ),
+    ] {
+        let src = std::fs::read(cam.join(program)).unwrap();
+        let machine =
+            machine_file::load(&fixtures.join(format!("{machine}.machine.toml"))).unwrap();
+        let errors =
+            error_file::load(&fixtures.join(format!("{errors}.errors.toml")), &machine).unwrap();
+        let zero = ErrorModel::zero(&machine);
+        let mut out = Vec::new();
+        Compensator::new(&machine, &zero, Options::default())
+            .unwrap()
+            .run(&src, program, &mut out)
+            .unwrap();
+        assert!(out == src, "{program}: the zero model changed it");
+        // The options a user gets from the command line: the path checked to 1 µm.
+        let options = Options {
+            path: Some(nccomp::kinematics::path::PathTolerance::default()),
+            ..Options::default()
+        };
+        let comp = Compensator::new(&machine, &errors, options).unwrap();
+        let mut out = Vec::new();
+        let summary = comp
+            .run(&src, program, &mut out)
+            .unwrap_or_else(|e| panic!("{program}: {e}"));
+        assert!(summary.words_changed > 0, "{program}");
+        assert!(
+            summary.plane_positions.len() >= planes,
+            "{program}: {:?}",
+            summary.plane_positions
+        );
+        // The control wants consecutive block numbers, inserted blocks or not.
+        let numbers = block_numbers(&out);
+        assert_eq!(numbers[0], block_numbers(&src)[0], "{program}");
+        for w in numbers.windows(2) {
+            assert_eq!(w[1], w[0] + 1, "{program}: block {} after {}", w[1], w[0]);
+        }
+        // What nccomp writes it reads again.
+        let reread = Compensator::new(&machine, &errors, Options::default())
+            .unwrap()
+            .run(&out, program, &mut Vec::new());
+        assert!(
+            reread.is_ok(),
+            "{program}: the output is refused: {reread:?}"
+        );
+    }
+}

@@ -278,8 +278,28 @@ impl Pass<'_> {
                 }
             }
             let (pose, _) = self.kin.pose(Model::Nominal, &q[..n], length);
-            if !within || angle_between(&pose.o, &target.o) > 1e-9 {
+            let mut miss = angle_between(&pose.o, &target.o);
+            if !within || miss > 1e-9 {
                 continue;
+            }
+            // Where the direction is stationary in an axis (a 45° head at its half turn)
+            // Newton's method stops some µrad short of the angle the control computes in
+            // closed form (the direction error left is their square); a rounder value that
+            // points the tool at least as well is that angle.
+            let all: u32 = order.iter().fold(0, |m, &v| m | 1 << v);
+            let sets = std::iter::once(all).chain(order.iter().map(|&v| 1u32 << v));
+            let grids = [1.0, 0.1, 0.01, 0.001, self.machine.resolution.rotary];
+            for (set, grid) in sets.flat_map(|s| grids.iter().map(move |&g| (s, g))) {
+                let mut snapped = q;
+                for &v in order.iter().filter(|&&v| set & (1 << v) != 0) {
+                    snapped[v] = (q[v] / grid).round() * grid;
+                }
+                let (pose, _) = self.kin.pose(Model::Nominal, &snapped[..n], length);
+                let m = angle_between(&pose.o, &target.o);
+                if m <= miss.max(1e-13) {
+                    q = snapped;
+                    miss = m;
+                }
             }
             if !found
                 .iter()
