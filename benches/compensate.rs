@@ -1,6 +1,9 @@
-//! Compensation throughput on a generated five-axis program of 100,000 blocks.
+//! Compensation throughput on a generated five-axis program of 100,000 blocks, and the
+//! same moves as a million-block G-code and Heidenhain TNC program with the command line's
+//! options.
 //!
 //!     cargo bench --bench compensate
+//!     cargo bench --bench compensate -- dialects   # the G-code / TNC comparison only
 //!
 //! Figures go to docs/performance.md.
 
@@ -105,6 +108,36 @@ fn bench(c: &mut Criterion) {
             })
         },
     );
+    group.finish();
+
+    // The same million moves as G-code and as a Heidenhain TNC program, with the options
+    // of the command line (the path checked to 1 µm, two threads, streamed), side by side.
+    const MILLION: usize = 1_000_000;
+    let gcode = common::program::program(MILLION);
+    let tnc = common::program::tnc_program(MILLION);
+    let cli = Compensator::new(
+        &machine,
+        &errors,
+        Options {
+            path: Some(nccomp::kinematics::path::PathTolerance::default()),
+            threads: 2,
+            ..Options::default()
+        },
+    )
+    .unwrap();
+    let mut group = c.benchmark_group("dialects");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(MILLION as u64));
+    for (name, src) in [("G-code", &gcode), ("Heidenhain TNC", &tnc)] {
+        group.bench_function(format!("{name}, 1M blocks, default options"), |b| {
+            let mut out = Vec::with_capacity(src.len() * 2);
+            b.iter(|| {
+                out.clear();
+                cli.run_stream(black_box(&src[..]), "bench", &mut out, "out")
+                    .unwrap()
+            })
+        });
+    }
     group.finish();
 }
 

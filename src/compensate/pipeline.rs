@@ -161,7 +161,10 @@ pub(super) fn run<M: Mode>(mode: &mut M, b: &mut Block) -> Result<(), Diagnostic
     }
     let hold = pass.hold | mode.hold(pass) | unset;
     // Used where it lies: moved out of the `Result`, the 440-byte solution is copied.
-    let solved = pass.solve(&target, hold, b.cx, b.state);
+    let mut solved = pass.solve(&target, hold, b.cx, b.state);
+    if let (Ok((end, _)), Some(o)) = (&mut solved, mode.direction()) {
+        end.target.o = o;
+    }
     let (end, at_limit) = match &solved {
         Ok((end, at_limit)) => (end, *at_limit),
         Err(_) => return solved.map(|_| ()),
@@ -223,6 +226,12 @@ pub(super) trait Mode {
     /// After the block is recorded: what the controller does at the block's end beyond its
     /// words (a cycle's retract).
     fn after(&mut self, _b: &mut Block) {}
+
+    /// The tool direction the block is meant to have, where the solve's target differs
+    /// from it (rotary axes held where an earlier block left them).
+    fn direction(&self) -> Option<nalgebra::Vector3<f64>> {
+        None
+    }
 }
 
 impl Pass<'_> {

@@ -140,7 +140,7 @@ impl Pass<'_> {
             return Err(cx.refuse(
                 cx.first_word_col(),
                 format!(
-                    "where axis {} stands under {this} is not known (after G28, G30, G53 or a machine move code; {unknown_hint})",
+                    "where axis {} stands under {this} is not known (after G28, G30, G53, M91, M92 or a machine move code; {unknown_hint})",
                     pass.axis_name(v)
                 ),
             ));
@@ -162,7 +162,7 @@ impl Pass<'_> {
         if !given && state.pos.unknown != 0 {
             return Err(cx.refuse(
                 cx.first_word_col(),
-                format!("where the tool stands {within} before this block is not known (after G28, G30, G53 or a machine move code; expected X, Y and Z in this block)"),
+                format!("where the tool stands {within} before this block is not known (after G28, G30, G53, M91, M92 or a machine move code; expected X, Y and Z in this block)"),
             ));
         }
         Ok(())
@@ -294,8 +294,34 @@ impl Pass<'_> {
                 for &v in order.iter().filter(|&&v| set & (1 << v) != 0) {
                     snapped[v] = (q[v] / grid).round() * grid;
                 }
-                let (pose, _) = self.kin.pose(Model::Nominal, &snapped[..n], length);
-                let m = angle_between(&pose.o, &target.o);
+                // The other axes follow the snapped one (a C table turns with the head).
+                let miss_at = |q: &[f64; MAX_AXES]| {
+                    let (pose, _) = self.kin.pose(Model::Nominal, &q[..n], length);
+                    angle_between(&pose.o, &target.o)
+                };
+                for &u in order.iter().filter(|&&u| set & (1 << u) == 0) {
+                    let (mut lo, mut hi) = (snapped[u] - 0.05, snapped[u] + 0.05);
+                    let ratio = (5f64.sqrt() - 1.0) / 2.0;
+                    while hi - lo > 1e-10 {
+                        let (a, b) = (hi - ratio * (hi - lo), lo + ratio * (hi - lo));
+                        let (mut qa, mut qb) = (snapped, snapped);
+                        qa[u] = a;
+                        qb[u] = b;
+                        if miss_at(&qa) < miss_at(&qb) {
+                            hi = b;
+                        } else {
+                            lo = a;
+                        }
+                    }
+                    snapped[u] = (lo + hi) / 2.0;
+                    let mut gridded = snapped;
+                    let fine = self.machine.resolution.rotary;
+                    gridded[u] = (snapped[u] / fine).round() * fine;
+                    if miss_at(&gridded) <= miss_at(&snapped) {
+                        snapped = gridded;
+                    }
+                }
+                let m = miss_at(&snapped);
                 if m <= miss.max(1e-13) {
                     q = snapped;
                     miss = m;

@@ -87,6 +87,9 @@ pub(super) struct TcpMode {
     /// The axes the solve holds beyond the pass's: under G43.5 the rotary axes at a
     /// singular pose.
     hold: u32,
+    /// The programmed tool direction where the solve's target is not it (see
+    /// [`Mode::direction`]).
+    direction: Option<Vector3<f64>>,
     /// Points inserted before the block, in order.
     pieces: Vec<End>,
     /// The block's end as written.
@@ -115,6 +118,7 @@ impl TcpMode {
             scale: 1.0,
             tip_arc: None,
             hold: 0,
+            direction: None,
             pieces: Vec::new(),
             end: None,
             frame: None,
@@ -304,10 +308,35 @@ impl Mode for TcpMode {
                 }
             }
         }
+        if !vector && self.frame.is_none() && self.hold != 0 {
+            // The held rotary axes stand where the last block left them (corrected), not
+            // at their programmed values: the tip is put in place with them there.
+            let mut at = solve_at;
+            for v in (0..n).filter(|&v| self.hold & (1 << v) != 0) {
+                at[v] = state.emitted[v];
+            }
+            let there = pass.kin.tcp_axes_with_rotaries(
+                &tip,
+                &at[..n],
+                state.modal.length,
+                &pass.options.solve,
+            );
+            if there.position_residual <= 1e-6 {
+                solve_at = there.q;
+                let (pose, _) = pass
+                    .kin
+                    .pose(Model::Nominal, &nominal[..n], state.modal.length);
+                self.direction = Some(pose.o);
+            }
+        }
         state.pos.nominal = nominal;
         state.pos.programmed |= (1u32 << n) - 1;
         *q = solve_at;
         Ok(true)
+    }
+
+    fn direction(&self) -> Option<Vector3<f64>> {
+        self.direction
     }
 
     fn hold(&self, _pass: &Pass<'_>) -> u32 {
