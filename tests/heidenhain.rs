@@ -304,6 +304,41 @@ struct Step {
     /// Every axis has been set by the program (or the control's turn) at its end: where
     /// it stands is known.
     known: bool,
+    /// The block calls a drilling cycle (`M99`, `CYCL CALL`): the hole it drills. The
+    /// step then ends where the cycle leaves the tool (Q203 + max(Q200, Q204)).
+    hole: Option<Hole>,
+}
+
+/// A drilling cycle's definition (`CYCL DEF 200` … `209` and its `~` lines): the levels
+/// along the plane's Z (the feeds are not followed).
+#[derive(Clone, Copy, Debug, Default)]
+struct Cycle {
+    q200: Option<f64>,
+    q201: Option<f64>,
+    q203: Option<f64>,
+    q204: Option<f64>,
+}
+
+impl Cycle {
+    /// Set-up clearance, depth, surface and 2nd set-up clearance.
+    fn levels(&self) -> [f64; 4] {
+        let get = |v: Option<f64>, name: &str| v.unwrap_or_else(|| panic!("no {name}"));
+        [
+            get(self.q200, "Q200"),
+            get(self.q201, "Q201"),
+            get(self.q203, "Q203"),
+            get(self.q204, "Q204"),
+        ]
+    }
+}
+
+/// A hole a cycle call drills, in the plane's frame: at X, Y (the tip's when the call
+/// starts) with the definition in force.
+#[derive(Clone, Copy, Debug)]
+struct Hole {
+    plane: Plane,
+    xy: [f64; 2],
+    cycle: Cycle,
 }
 
 /// A line of the program: its text without the block number, and what it does.
@@ -313,6 +348,8 @@ struct Rec {
     step: Option<Step>,
     /// The line is a PLANE SPATIAL.
     is_plane: bool,
+    /// The line is (part of) a drilling cycle's definition.
+    is_cycle: bool,
 }
 
 /// The control's state.
@@ -331,6 +368,10 @@ struct Control<'s> {
     /// Bit k: axis k (X Y Z tilt C) has been set.
     known: u8,
     labels: HashMap<String, Vec<String>>,
+    /// Q parameters set with `FN 0`.
+    params: HashMap<String, f64>,
+    /// The drilling cycle defined last (its `~` lines fill it in).
+    cycle: Option<Cycle>,
 }
 
 /// Split a TNC line into its block number and the rest.
@@ -389,6 +430,8 @@ impl<'s> Control<'s> {
             ended: false,
             known: 0,
             labels,
+            params: HashMap::new(),
+            cycle: None,
         }
     }
 
@@ -415,8 +458,9 @@ impl<'s> Control<'s> {
             "FN" => {
                 // Feed rates (FQ1): a constant assigned, nothing moved.
                 let text: String = words[1..].concat();
-                let (_, value) = text.strip_prefix("0:").unwrap().split_once('=').unwrap();
-                value.parse::<f64>().unwrap();
+                let (name, value) = text.strip_prefix("0:").unwrap().split_once('=').unwrap();
+                self.params
+                    .insert(name.to_string(), value.parse::<f64>().unwrap());
                 None
             }
             "CALL" => {
@@ -432,10 +476,28 @@ impl<'s> Control<'s> {
                 }
                 None
             }
+            "CYCL" if words[1] == "CALL" => {
+                assert_eq!(words.len(), 2, "CYCL CALL POS/PAT is not read here");
+                let q0 = self.q;
+                Some(self.drill(Step {
+                    kind: Kind::Plane,
+                    rapid: true,
+                    length: self.length,
+                    q0,
+                    q1: self.q,
+                    tip0: Vector3::zeros(),
+                    tip1: Vector3::zeros(),
+                    known: self.known == 0b11111,
+                    hole: None,
+                }))
+            }
             "CYCL" => {
                 assert_eq!(words[1], "DEF");
                 match words[2] {
                     "7.0" => {}
+                    n if n.parse::<u32>().is_ok_and(|n| (200..=209).contains(&n)) => {
+                        self.cycle = Some(Cycle::default());
+                    }
                     "7.1" | "7.2" | "7.3" => {
                         let (c, value) = letter(words[3]);
                         let k = (c as u8 - b'X') as usize;
@@ -514,6 +576,27 @@ impl<'s> Control<'s> {
             }
             "L" => self.straight(&words[1..]),
             "LBL" => panic!("a label before the program's end"),
+            w if w.starts_with('Q') && w.contains('=') => {
+                // A `~` line of a cycle's definition.
+                assert_eq!(words.len(), 1, "`{}`", words.join(" "));
+                let (name, value) = w.split_once('=').unwrap();
+                let value = match value.strip_prefix('Q') {
+                    Some(_) => *self
+                        .params
+                        .get(value)
+                        .unwrap_or_else(|| panic!("{value} is not set")),
+                    None => value.parse().unwrap(),
+                };
+                let cycle = self.cycle.as_mut().expect("a Q line outside a definition");
+                match name {
+                    "Q200" => cycle.q200 = Some(value),
+                    "Q201" => cycle.q201 = Some(value),
+                    "Q203" => cycle.q203 = Some(value),
+                    "Q204" => cycle.q204 = Some(value),
+                    _ => {}
+                }
+                None
+            }
             w if w.starts_with('M') => {
                 for w in words {
                     self.m(w);
@@ -540,6 +623,30 @@ impl<'s> Control<'s> {
     }
 
     /// The control turns the rotary axes; the linear axes stay.
+    /// The drilling cycle called at the end of `step` (which positioned X, Y at the
+    /// current height): down the plane's Z to the bottom and back to Q203 + max(Q200,
+    /// Q204), where the tool then stands.
+    fn drill(&mut self, mut step: Step) -> Step {
+        assert!(!self.tcp, "a cycle call under TCP");
+        let plane = self
+            .plane
+            .expect("a cycle call outside a plane is not in these fixtures");
+        let cycle = self.cycle.expect("a cycle call without a definition");
+        let [q200, _, q203, q204] = cycle.levels();
+        let w = plane.words(self.setup.forward(self.q, self.length).0);
+        let top = Vector3::new(w.x, w.y, q203 + q200.max(q204));
+        self.q = self
+            .setup
+            .linear_axes(plane.part(top), self.q[3], self.q[4], self.length);
+        step.q1 = self.q;
+        step.hole = Some(Hole {
+            plane,
+            xy: [w.x, w.y],
+            cycle,
+        });
+        step
+    }
+
     fn turn(&mut self, [t, c]: [f64; 2]) -> Step {
         let q0 = self.q;
         self.q[3] = t;
@@ -554,6 +661,7 @@ impl<'s> Control<'s> {
             tip0: Vector3::zeros(),
             tip1: Vector3::zeros(),
             known: self.known == 0b11111,
+            hole: None,
         }
     }
 
@@ -561,6 +669,7 @@ impl<'s> Control<'s> {
         let mut axes: Vec<(char, f64)> = Vec::new();
         let mut plane_angles = false;
         let mut rapid = false;
+        let mut call = false;
         let mut k = 0;
         while k < words.len() {
             let w = words[k];
@@ -573,6 +682,7 @@ impl<'s> Control<'s> {
                     k += 1;
                 }
                 _ if w.starts_with('F') => {}
+                "M99" => call = true,
                 _ if w.starts_with('M') => self.m(w),
                 _ => {
                     let (c, value) = letter(w);
@@ -600,6 +710,7 @@ impl<'s> Control<'s> {
             return Some(self.turn(angles));
         }
         if axes.is_empty() {
+            assert!(!call, "M99 without X, Y is not in these fixtures");
             return None;
         }
         let q0 = self.q;
@@ -648,6 +759,7 @@ impl<'s> Control<'s> {
                 tip0: self.datum + tip0,
                 tip1: self.datum + self.tip,
                 known,
+                hole: None,
             });
         } else if let Some(plane) = self.plane {
             assert!(self.pending.is_none(), "a move before the STAY block");
@@ -668,7 +780,7 @@ impl<'s> Control<'s> {
             }
             Kind::Axes
         };
-        Some(Step {
+        let step = Step {
             kind,
             rapid,
             length: self.length,
@@ -677,7 +789,9 @@ impl<'s> Control<'s> {
             tip0: Vector3::zeros(),
             tip1: Vector3::zeros(),
             known,
-        })
+            hole: None,
+        };
+        Some(if call { self.drill(step) } else { step })
     }
 }
 
@@ -690,11 +804,17 @@ fn run(setup: &Setup, program: &str) -> Vec<Rec> {
             let rest = split_number(line).1;
             let words = statement(rest);
             let mut is_plane = false;
+            let is_cycle =
+                (words.len() > 2 && words[..2] == ["CYCL", "DEF"] && words[2].starts_with('2'))
+                    || words
+                        .first()
+                        .is_some_and(|w| w.starts_with('Q') && w.contains('='));
             let step = control.line(&words, &mut is_plane);
             Rec {
                 text: rest.to_string(),
                 step,
                 is_plane,
+                is_cycle,
             }
         })
         .collect()
@@ -734,6 +854,14 @@ struct Figures {
     /// Blocks inserted, and moves split.
     inserted: usize,
     split: usize,
+    /// Holes drilled (cycle calls), the largest distance (mm) of the real tip at a hole's
+    /// bottom from the programmed bottom, and at its set-up clearance from the programmed
+    /// hole's axis point there; the definitions inserted before calls (copies with
+    /// another Q203).
+    holes: usize,
+    hole_bottom: f64,
+    hole_clearance: f64,
+    definitions: usize,
     /// Where an assertion would fail: the first few.
     faults: Vec<String>,
 }
@@ -789,6 +917,14 @@ fn evaluate(setup: &Setup, programmed: &str, written: &str) -> Figures {
                 .get(k)
                 .unwrap_or_else(|| panic!("line {} is missing from the output", i + 1));
             k += 1;
+            if step.hole.is_some() && w.step.is_none() && w.is_cycle {
+                // A copy of the definition inserted before the call: the control takes
+                // it as the definition in force.
+                if w.text.trim_start().starts_with("CYCL DEF") {
+                    f.definitions += 1;
+                }
+                continue;
+            }
             let s = w.step.unwrap_or_else(|| {
                 panic!(
                     "line {}: the output has `{}` where the program moves",
@@ -798,6 +934,16 @@ fn evaluate(setup: &Setup, programmed: &str, written: &str) -> Figures {
             });
             assert_eq!(s.kind, step.kind, "line {}: {}", i + 1, w.text);
             pieces.push(s);
+            if step.hole.is_some() {
+                // The call is written as one block; where it ends is the cycle's.
+                assert!(
+                    s.hole.is_some(),
+                    "line {}: `{}` calls no cycle",
+                    i + 1,
+                    w.text
+                );
+                break;
+            }
             if line_by_line || (actual(s.q1, s.length).p - target).norm() <= MATCH {
                 break;
             }
@@ -812,6 +958,42 @@ fn evaluate(setup: &Setup, programmed: &str, written: &str) -> Figures {
         if pieces.len() > 1 {
             f.inserted += pieces.len() - 1;
             f.split += 1;
+        }
+        if let (Some(nominal_hole), Some(written_hole)) = (step.hole, pieces.last().unwrap().hole) {
+            // The hole: its bottom, and its axis at the set-up clearance. The positioning
+            // (FMAX) is not checked, nor where the cycle leaves the tool.
+            let last = pieces.last().unwrap();
+            let tip = |h: &Hole, level: f64| {
+                h.plane
+                    .part(Vector3::new(h.xy[0], h.xy[1], h.cycle.levels()[2] + level))
+            };
+            let real_tip = |h: &Hole, level: f64| {
+                let q = setup.linear_axes(tip(h, level), last.q1[3], last.q1[4], last.length);
+                actual(q, last.length).p
+            };
+            let [q200, q201, _, _] = nominal_hole.cycle.levels();
+            let [w200, w201, _, _] = written_hole.cycle.levels();
+            assert_eq!((q200, q201), (w200, w201), "line {}", i + 1);
+            let bottom = (real_tip(&written_hole, q201) - tip(&nominal_hole, q201)).norm();
+            let clearance = (real_tip(&written_hole, q200) - tip(&nominal_hole, q200)).norm();
+            f.holes += 1;
+            f.hole_bottom = f.hole_bottom.max(bottom);
+            f.hole_clearance = f.hole_clearance.max(clearance);
+            if bottom > END {
+                f.fault(format!(
+                    "line {}: the hole's bottom is {:.3} µm off",
+                    i + 1,
+                    bottom * 1e3
+                ));
+            }
+            if clearance > tol.position {
+                f.fault(format!(
+                    "line {}: the hole's axis at the set-up clearance is {:.3} µm off",
+                    i + 1,
+                    clearance * 1e3
+                ));
+            }
+            continue;
         }
         // The block end.
         let last = pieces.last().unwrap();
@@ -1247,6 +1429,18 @@ fn check_fixture(program: &str, machine: &str, errors: &str) {
         f.inserted,
         planes,
     );
+    eprintln!(
+        "{program}: {} holes, bottoms within {:.3} µm, axis at the set-up clearance within {:.3} µm; {} definitions inserted",
+        f.holes,
+        f.hole_bottom * 1e3,
+        f.hole_clearance * 1e3,
+        f.definitions,
+    );
+    let calls = recs
+        .iter()
+        .filter(|r| r.step.is_some_and(|s| s.hole.is_some()))
+        .count();
+    assert_eq!(f.holes, calls, "{program}: every cycle call is evaluated");
     assert_eq!(
         (f.inserted, f.split),
         (summary.blocks_added, summary.moves_split),
