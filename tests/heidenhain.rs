@@ -1644,3 +1644,65 @@ fn a_plane_at_the_end_of_a_45_degree_heads_swing_is_solved_exactly() {
     }
     assert!(faults.is_empty(), "{}", faults.join("\n"));
 }
+
+/// PLANE EULER, VECTOR and RELATIV name the same plane as a PLANE SPATIAL: the control
+/// turns the rotary axes to the same angles, and the moves in the plane come out the same.
+#[test]
+fn the_other_plane_forms_name_the_same_plane_as_spatial() {
+    let setup = Setup::load("ac_trunnion", "ac_trunnion");
+    let program = |plane: &str| {
+        format!(
+            "0 BEGIN PGM P MM\n1 L X+0 Y+0 Z+100 A+0 C+0 R0 FMAX\n2 CYCL DEF 7.0 DATUM SHIFT\n3 CYCL DEF 7.1 X+20\n4 CYCL DEF 7.2 Y-10\n5 CYCL DEF 7.3 Z-5\n6 {plane}\n7 L A+Q120 C+Q122 R0 FMAX\n8 L X+10 Y+5 Z+30 R0 FMAX\n9 L X+40 Y+25 Z+2 F500\n10 PLANE RESET STAY\n11 M30\n12 END PGM P MM\n"
+        )
+    };
+    let (spatial, s_summary) = compensate(
+        &setup,
+        &program("PLANE SPATIAL SPA-30 SPB0 SPC45 STAY SEQ- TABLE ROT"),
+        "spatial.h",
+    );
+    // R = Rz(45)·Rx(-30): Euler Z-X-Z (45, -30, 0); X axis (c45, s45, 0); normal
+    // Rz(45)·(0, sin 30, cos 30).
+    let (s45, c30) = (0.5f64.sqrt(), 0.75f64.sqrt());
+    let vector = format!(
+        "PLANE VECTOR BX{s45:+.12} BY{s45:+.12} BZ+0 NX{:+.12} NY{:+.12} NZ{c30:+.12} STAY SEQ- TABLE ROT",
+        -0.5 * s45,
+        0.5 * s45
+    );
+    for form in [
+        "PLANE EULER EULPR45 EULNU-30 EULROT0 STAY SEQ- TABLE ROT".to_string(),
+        vector,
+    ] {
+        let (out, summary) = compensate(&setup, &program(&form), "form.h");
+        assert_eq!(summary.plane_positions.len(), 1, "{form}");
+        for ((_, a), (_, b)) in summary.plane_positions[0]
+            .1
+            .iter()
+            .zip(&s_summary.plane_positions[0].1)
+        {
+            assert!((a - b).abs() < 1e-6, "{form}: {a} against {b}");
+        }
+        let moves = |text: &str| -> Vec<String> {
+            text.lines()
+                .filter(|l| l.contains(" L X"))
+                .map(str::to_string)
+                .collect()
+        };
+        assert_eq!(moves(&out), moves(&spatial), "{form}");
+    }
+    // RELATIV turns the plane in force about its own axes: SPC45 then SPA-30 about the
+    // turned X is SPATIAL SPA-30 SPB0 SPC45.
+    let relativ = program("PLANE SPATIAL SPA+0 SPB+0 SPC+45 STAY SEQ- TABLE ROT").replace(
+        "6 PLANE SPATIAL SPA+0 SPB+0 SPC+45 STAY SEQ- TABLE ROT\n",
+        "6 PLANE SPATIAL SPA+0 SPB+0 SPC+45 STAY SEQ- TABLE ROT ; PLANE RELATIV SPA-30 follows\n6 PLANE RELATIV SPA-30 STAY SEQ- TABLE ROT\n",
+    );
+    let (out, summary) = compensate(&setup, &relativ, "relativ.h");
+    assert_eq!(summary.plane_positions.len(), 1);
+    for ((_, a), (_, b)) in summary.plane_positions[0]
+        .1
+        .iter()
+        .zip(&s_summary.plane_positions[0].1)
+    {
+        assert!((a - b).abs() < 1e-6, "RELATIV: {a} against {b}");
+    }
+    assert!(out.contains("PLANE RELATIV SPA-30"));
+}

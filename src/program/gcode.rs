@@ -150,10 +150,16 @@ impl Reader<'_> {
             .and_then(|()| self.read_words(line, tokens, modal, at, motion))
             .map_err(|d| match foreign_dialect(line.content) {
                 // A refusal of another dialect's block says what the program is.
+                Some(dialect) if dialect.contains("Heidenhain") => at(
+                    0,
+                    format!(
+                        "this looks like {dialect}, in a program read as G-code: nccomp reads a TNC program as one when it starts with a numbered BEGIN PGM, or with --dialect heidenhain (expected G-code such as G1 X10.5 here)"
+                    ),
+                ),
                 Some(dialect) => at(
                     0,
                     format!(
-                        "this looks like {dialect}: nccomp reads ISO G-code programs (Fanuc, Haas, LinuxCNC style); this dialect is not read yet (expected G-code such as G1 X10.5)"
+                        "this looks like {dialect}: nccomp reads ISO G-code programs (Fanuc, Haas, LinuxCNC style) and Heidenhain TNC programs; this dialect is not read yet (expected G-code such as G1 X10.5)"
                     ),
                 ),
                 // Lines ended by CR alone run together into one.

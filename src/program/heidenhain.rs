@@ -1401,33 +1401,41 @@ impl Reader<'_> {
                 "PLANE under tool-centre-point control (M128, FUNCTION TCPM) cannot be compensated (expected M129 or FUNCTION RESET TCPM before it)".into(),
             ));
         }
-        let mut angles = [None; 3];
         let mut turn = None;
         let mut sequence = None;
         let mut table_rot = false;
-        let reset = word(1) == "RESET";
-        if !reset && word(1) != "SPATIAL" {
-            return Err(at(
-                col(1),
-                format!(
-                    "PLANE {} is not followed by nccomp yet (expected PLANE SPATIAL or PLANE RESET)",
-                    word(1)
-                ),
-            ));
-        }
+        let kind = word(1);
+        let reset = kind == "RESET";
+        // The values each form takes: spatial angles, Euler angles, or the plane's X axis
+        // (base) and normal vectors.
+        let keys: &[&str] = match kind {
+            "SPATIAL" | "RELATIV" => &["SPA", "SPB", "SPC"],
+            "EULER" => &["EULPR", "EULNU", "EULROT"],
+            "VECTOR" => &["BX", "BY", "BZ", "NX", "NY", "NZ"],
+            "RESET" => &[],
+            _ => {
+                return Err(at(
+                    col(1),
+                    format!(
+                        "PLANE {kind} is not followed by nccomp (expected PLANE SPATIAL, EULER, VECTOR, RELATIV or RESET)"
+                    ),
+                ));
+            }
+        };
+        let mut values: [Option<f64>; 6] = [None; 6];
         let mut k = 2;
         while k < sig.len() {
             let t = word(k);
             let c = col(k);
             k += 1;
-            if let Some((axis, value)) = ["SPA", "SPB", "SPC"]
+            if let Some((slot, value)) = keys
                 .iter()
                 .enumerate()
                 .find_map(|(a, p)| t.strip_prefix(p).map(|v| (a, v)))
-                && !reset
             {
+                let limit = if kind == "VECTOR" { MAX_WORD } else { 360.0 };
                 let value = match value.parse::<f64>() {
-                    Ok(v) if v.is_finite() && v.abs() <= 360.0 => v,
+                    Ok(v) if v.is_finite() && v.abs() <= limit => v,
                     _ => match q_key(value.as_bytes())
                         .and_then(|(key, sign)| tnc.q.get(&key).map(|v| sign * v))
                     {
@@ -1436,13 +1444,13 @@ impl Reader<'_> {
                             return Err(at(
                                 c,
                                 format!(
-                                    "`{t}`: expected a spatial angle in degrees, or a Q parameter set to a constant"
+                                    "`{t}`: expected a number (an angle in degrees, or a vector's component), or a Q parameter set to a constant"
                                 ),
                             ));
                         }
                     },
                 };
-                angles[axis] = Some(value);
+                values[slot] = Some(value);
                 continue;
             }
             match t {
@@ -1493,14 +1501,8 @@ impl Reader<'_> {
             modal.shift = modal.shift_from(self.machine);
             return Ok(false);
         }
-        let [Some(a), Some(b), Some(c)] = angles else {
-            return Err(at(
-                col(0),
-                "PLANE SPATIAL needs all three spatial angles SPA, SPB and SPC".into(),
-            ));
-        };
         let Some(turn) = turn else {
-            return Err(at(col(0), "expected STAY or TURN in PLANE SPATIAL".into()));
+            return Err(at(col(0), format!("expected STAY or TURN in PLANE {kind}")));
         };
         if modal.working_plane.is_some_and(|p| p.rotation_only) {
             return Err(at(
@@ -1508,7 +1510,51 @@ impl Reader<'_> {
                 "PLANE under a coordinate rotation cannot be compensated".into(),
             ));
         }
-        let mut plane = WorkingPlane::spatial(tnc.datum, [a, b, c]);
+        let all = |n: usize, what: &str| -> Result<Vec<f64>, Diagnostic> {
+            values[..n]
+                .iter()
+                .map(|v| v.ok_or_else(|| at(col(0), format!("PLANE {kind} needs {what}"))))
+                .collect()
+        };
+        let mut plane = match kind {
+            "SPATIAL" => {
+                let v = all(3, "all three spatial angles SPA, SPB and SPC")?;
+                WorkingPlane::spatial(tnc.datum, [v[0], v[1], v[2]])
+            }
+            "EULER" => {
+                let v = all(3, "all three Euler angles EULPR, EULNU and EULROT")?;
+                WorkingPlane::new(tnc.datum, [v[0], v[1], v[2]])
+            }
+            "VECTOR" => {
+                let v = all(6, "the base vector BX BY BZ and the normal vector NX NY NZ")?;
+                WorkingPlane::vectors(tnc.datum, [v[0], v[1], v[2]], [v[3], v[4], v[5]])
+                    .ok_or_else(|| {
+                        at(
+                            col(0),
+                            "PLANE VECTOR needs a normal vector and a base vector not along it"
+                                .into(),
+                        )
+                    })?
+            }
+            _ => {
+                // RELATIV: one spatial angle about an axis of the plane in force.
+                let given: Vec<(usize, f64)> = values[..3]
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(a, v)| v.map(|v| (a, v)))
+                    .collect();
+                let [(axis, angle)] = given[..] else {
+                    return Err(at(
+                        col(0),
+                        "PLANE RELATIV needs exactly one of SPA, SPB, SPC".into(),
+                    ));
+                };
+                let base = modal
+                    .working_plane
+                    .unwrap_or_else(|| WorkingPlane::spatial(tnc.datum, [0.0; 3]));
+                base.turned(axis, angle)
+            }
+        };
         plane.sequence = sequence;
         plane.table_rot = table_rot;
         modal.working_plane = Some(plane);

@@ -175,6 +175,37 @@ impl WorkingPlane {
         }
     }
 
+    /// The plane of Heidenhain's `PLANE VECTOR`: its X axis along `base` (made
+    /// perpendicular to the normal), its Z axis along `normal`, about the datum `origin`;
+    /// `None` when the vectors do not span a plane.
+    pub fn vectors(origin: [f64; 3], base: [f64; 3], normal: [f64; 3]) -> Option<WorkingPlane> {
+        use nalgebra::{Matrix3, Rotation3, Vector3};
+        let z = Vector3::from(normal).try_normalize(1e-9)?;
+        let b = Vector3::from(base);
+        let x = (b - z * b.dot(&z)).try_normalize(1e-9)?;
+        let y = z.cross(&x);
+        Some(WorkingPlane {
+            origin: Vector3::from(origin),
+            rotation: Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z])),
+            tilted: false,
+            rotation_only: false,
+            sequence: None,
+            table_rot: false,
+        })
+    }
+
+    /// This plane turned by `degrees` about its own X (`axis` 0), Y (1) or Z (2) axis:
+    /// Heidenhain's `PLANE RELATIV`.
+    pub fn turned(&self, axis: usize, degrees: f64) -> WorkingPlane {
+        use nalgebra::{Rotation3, Vector3};
+        let about = [Vector3::x_axis(), Vector3::y_axis(), Vector3::z_axis()][axis.min(2)];
+        WorkingPlane {
+            rotation: self.rotation * Rotation3::from_axis_angle(&about, degrees.to_radians()),
+            tilted: false,
+            ..*self
+        }
+    }
+
     /// The rotation of `G17 G68 X Y R`: the program's X, Y turned by `degrees` about the
     /// centre (mm), counter-clockwise seen from +Z; Z as programmed.
     pub fn rotation(centre: [f64; 2], degrees: f64) -> WorkingPlane {
