@@ -175,6 +175,10 @@ impl Labels {
         let all: Vec<nc::Line<'_>> = nc::lines(src).collect();
         let mut ends = Vec::new();
         for (k, line) in all.iter().enumerate() {
+            // Only a line that says LBL can be one: the rest are not cut into tokens.
+            if memchr::memmem::find(line.content, b"LBL").is_none() {
+                continue;
+            }
             nc::heidenhain::parse_line(line.content, &mut tokens);
             let sig = significant(line.content, &tokens);
             if sig.first().map(|&i| text(line.content, &tokens[i])) != Some("LBL") {
