@@ -124,6 +124,73 @@ impl CycleMode {
     }
 }
 
+/// A hole's axis, for [`Pass::one_xy_for_the_depth`].
+pub(super) struct HoleAxis<'a> {
+    /// The X, Y variables.
+    pub xy: [usize; 2],
+    /// The nominal values where the tool feeds from (the R plane, a set-up clearance).
+    pub top: &'a [f64; MAX_AXES],
+    /// The tilted working plane the hole is drilled in, along its Z.
+    pub frame: Option<&'a WorkingPlane>,
+    /// The column refusals point at, the level's name and what to do instead.
+    pub col: usize,
+    pub level: &'a str,
+    pub instead: &'a str,
+}
+
+impl Pass<'_> {
+    /// One X, Y serves the whole depth of a hole whose bottom solves to `end`: the tool at
+    /// the hole's top level, with the bottom's X, Y, is on the hole's axis within the path
+    /// tolerance. The solution at the top and, under a plane, the bottom's and the top's
+    /// words.
+    pub(super) fn one_xy_for_the_depth(
+        &self,
+        cx: &Cx<'_, '_>,
+        state: &mut crate::compensate::State,
+        hole: &HoleAxis<'_>,
+        end: &Solution,
+        hold: u32,
+        refuse: impl Fn(String) -> Diagnostic,
+    ) -> Result<(Solution, Vector3<f64>, Vector3<f64>), Diagnostic> {
+        let n = self.kin.len();
+        let [vx, vy] = hole.xy;
+        let (top, _) = self.solve(hole.top, hold, cx, state)?;
+        self.check_travel(&top.q, hole.col, cx)?;
+        let tolerance = self.options.path.unwrap_or_default().position;
+        let mut over = top.q;
+        over[vx] = end.q[vx];
+        over[vy] = end.q[vy];
+        let (mut bottom_words, mut top_words) = (Vector3::zeros(), Vector3::zeros());
+        if let Some(frame) = hole.frame {
+            // The controller goes down the plane's Z at the bottom's written X, Y.
+            let length = state.modal.length;
+            bottom_words = self.plane_words(frame, &end.q, length);
+            top_words = self.plane_words(frame, &top.q, length);
+            let w = Vector3::new(bottom_words.x, bottom_words.y, top_words.z);
+            over = self
+                .plane_axes(frame, &w, &state.emitted, length)
+                .ok_or_else(|| {
+                    refuse(format!(
+                        "the nominal machine cannot reach the {} above the corrected hole",
+                        hole.level
+                    ))
+                })?;
+        }
+        let (reached, _) = self.kin.pose(Model::Actual, &over[..n], state.modal.length);
+        let off = (reached.p - top.target.p).norm();
+        if off > tolerance || end.position_residual > 1e-6 {
+            return Err(refuse(format!(
+                "one X, Y cannot serve the whole depth here: with the bottom's correction the tool is {:.2} µm off the hole's axis at the {} (more than {:.2} µm; {})",
+                off * 1e3,
+                hole.level,
+                tolerance * 1e3,
+                hole.instead
+            )));
+        }
+        Ok((top, bottom_words, top_words))
+    }
+}
+
 /// A hole of an L-repeated block: its X, Y increments (variable, digits, exact units; none
 /// for 0), and the Z and R words it needs (letter, digits).
 type Hole = (Vec<(usize, String, i128)>, Vec<(u8, String)>);
@@ -415,43 +482,22 @@ impl Mode for CycleMode {
     /// still on the hole's axis.
     fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic> {
         let (pass, cx, state, _) = b.parts();
-        let n = pass.kin.len();
-        let [vx, vy, _] = self.vars;
-        let (r_sol, _) = pass.solve(&self.r_plane, hold, cx, state)?;
-        pass.check_travel(&r_sol.q, Self::col(cx), cx)?;
-        let tolerance = pass.options.path.unwrap_or_default().position;
-        let mut at_r = r_sol.q;
-        at_r[vx] = end.q[vx];
-        at_r[vy] = end.q[vy];
-        if let Some(frame) = &self.frame {
-            // The controller goes down the plane's Z at the bottom's written X, Y.
-            let length = state.modal.length;
-            self.bottom_words = pass.plane_words(frame, &end.q, length);
-            self.r_words = pass.plane_words(frame, &r_sol.q, length);
-            let over_r = Vector3::new(self.bottom_words.x, self.bottom_words.y, self.r_words.z);
-            at_r = pass
-                .plane_axes(frame, &over_r, &state.emitted, length)
-                .ok_or_else(|| {
-                    Self::refuse(
-                        cx,
-                        "the nominal machine cannot reach the R point above the corrected hole"
-                            .into(),
-                    )
-                })?;
-        }
-        let (reached, _) = pass.kin.pose(Model::Actual, &at_r[..n], state.modal.length);
-        let off = (reached.p - r_sol.target.p).norm();
-        if off > tolerance || end.position_residual > 1e-6 {
-            return Err(Self::refuse(
-                cx,
-                format!(
-                    "one X, Y cannot serve the whole depth here: with the bottom's correction the tool is {:.2} µm off the hole's axis at the R plane (more than {:.2} µm; program the cycle as G0/G1 moves)",
-                    off * 1e3,
-                    tolerance * 1e3
-                ),
-            ));
-        }
-        self.r_solution = Some(r_sol);
+        let depth = pass.one_xy_for_the_depth(
+            cx,
+            state,
+            &HoleAxis {
+                xy: [self.vars[0], self.vars[1]],
+                top: &self.r_plane,
+                frame: self.frame.as_ref(),
+                col: Self::col(cx),
+                level: "R plane",
+                instead: "program the cycle as G0/G1 moves",
+            },
+            end,
+            hold,
+            |why| Self::refuse(cx, why),
+        )?;
+        (self.r_solution, self.bottom_words, self.r_words) = (Some(depth.0), depth.1, depth.2);
         Ok(())
     }
 

@@ -534,14 +534,10 @@ impl Compensator<'_> {
         &self,
         input: impl Read,
         input_name: &str,
-        mut output: impl Write,
+        output: impl Write,
         output_name: &str,
     ) -> crate::Result<Summary> {
         let read_error = |source| read_failure(input_name, source);
-        let write_error = |source| Error::Io {
-            path: output_name.to_string(),
-            source,
-        };
         if self.zero_model {
             return copy_through(input, input_name, output, output_name);
         }
@@ -558,44 +554,40 @@ impl Compensator<'_> {
             let mut pass = Run::new(self, false);
             pass.program(dialect, &src);
             let mut chunks = Chunks::new(&src[..]);
-            if self.threads > 1 {
-                self.run_ahead(
-                    &mut chunks,
-                    input_name,
-                    &mut output,
-                    output_name,
-                    &mut pass,
-                    Some((dialect, &src)),
-                )?;
-            } else {
-                let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
-                while let Some((chunk, before, offset)) = chunks.next().map_err(read_error)? {
-                    let go_on = pass.chunk(chunk, before, offset, input_name, &mut out);
-                    output.write_all(&out).map_err(write_error)?;
-                    out.clear();
-                    if !go_on {
-                        break;
-                    }
-                }
-            }
-            if !pass.failed() {
-                output.flush().map_err(write_error)?;
-            }
-            return pass.finish();
+            let program = Some((dialect, &src[..]));
+            return self.stream(&mut chunks, input_name, output, output_name, pass, program);
         }
         chunks.unread();
-        let mut pass = Run::new(self, false);
-        let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
+        let pass = Run::new(self, false);
+        self.stream(&mut chunks, input_name, output, output_name, pass, None)
+    }
+
+    /// The pass over `chunks`, one thread or with the solve-ahead helper.
+    fn stream<R: Read>(
+        &self,
+        chunks: &mut Chunks<R>,
+        input_name: &str,
+        mut output: impl Write,
+        output_name: &str,
+        mut pass: Run<'_, '_>,
+        program: Option<(nc::Dialect, &[u8])>,
+    ) -> crate::Result<Summary> {
+        let read_error = |source| read_failure(input_name, source);
+        let write_error = |source| Error::Io {
+            path: output_name.to_string(),
+            source,
+        };
         if self.threads > 1 {
             self.run_ahead(
-                &mut chunks,
+                chunks,
                 input_name,
                 &mut output,
                 output_name,
                 &mut pass,
-                None,
+                program,
             )?;
         } else {
+            let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
             while let Some((chunk, before, offset)) = chunks.next().map_err(read_error)? {
                 let go_on = pass.chunk(chunk, before, offset, input_name, &mut out);
                 output.write_all(&out).map_err(write_error)?;

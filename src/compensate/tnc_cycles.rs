@@ -14,9 +14,10 @@
 //! one X, Y must serve the whole depth within the path tolerance.
 
 use super::Pass;
+use super::cycles::HoleAxis;
 use super::pipeline::{Block, Cx, Mode};
 use crate::diag::Diagnostic;
-use crate::kinematics::{MAX_AXES, Model, Solution};
+use crate::kinematics::{MAX_AXES, Solution};
 use crate::model::AxisKind;
 use crate::nc::Edit;
 use crate::nc::edit::Editor;
@@ -176,41 +177,22 @@ impl Mode for TncCycleMode {
     /// X, Y, is still on the hole's axis.
     fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic> {
         let (pass, cx, state, _) = b.parts();
-        let n = pass.kin.len();
-        let [vx, vy, _] = self.vars;
-        let (r_sol, _) = pass.solve(&self.r_plane, hold, cx, state)?;
-        pass.check_travel(&r_sol.q, Self::col(cx), cx)?;
-        let tolerance = pass.options.path.unwrap_or_default().position;
-        let mut at_r = r_sol.q;
-        at_r[vx] = end.q[vx];
-        at_r[vy] = end.q[vy];
-        if let Some(frame) = &self.frame {
-            let length = state.modal.length;
-            self.bottom_words = pass.plane_words(frame, &end.q, length);
-            self.r_words = pass.plane_words(frame, &r_sol.q, length);
-            let over_r = Vector3::new(self.bottom_words.x, self.bottom_words.y, self.r_words.z);
-            at_r = pass
-                .plane_axes(frame, &over_r, &state.emitted, length)
-                .ok_or_else(|| {
-                    Self::refuse(
-                        cx,
-                        "the nominal machine cannot reach the set-up clearance above the corrected hole".into(),
-                    )
-                })?;
-        }
-        let (reached, _) = pass.kin.pose(Model::Actual, &at_r[..n], state.modal.length);
-        let off = (reached.p - r_sol.target.p).norm();
-        if off > tolerance || end.position_residual > 1e-6 {
-            return Err(Self::refuse(
-                cx,
-                format!(
-                    "one X, Y cannot serve the whole depth here: with the bottom's correction the tool is {:.2} µm off the hole's axis at the set-up clearance (more than {:.2} µm; program the hole as L moves)",
-                    off * 1e3,
-                    tolerance * 1e3
-                ),
-            ));
-        }
-        self.r_solution = Some(r_sol);
+        let depth = pass.one_xy_for_the_depth(
+            cx,
+            state,
+            &HoleAxis {
+                xy: [self.vars[0], self.vars[1]],
+                top: &self.r_plane,
+                frame: self.frame.as_ref(),
+                col: Self::col(cx),
+                level: "set-up clearance",
+                instead: "program the hole as L moves",
+            },
+            end,
+            hold,
+            |why| Self::refuse(cx, why),
+        )?;
+        (self.r_solution, self.bottom_words, self.r_words) = (Some(depth.0), depth.1, depth.2);
         Ok(())
     }
 

@@ -1241,21 +1241,6 @@ impl Reader<'_> {
                 }
                 Ok(false)
             }
-            200..=209 => {
-                let def = CycleDef {
-                    number: cycle,
-                    line: number,
-                    params: Vec::new(),
-                    text: vec![content.to_vec()],
-                    surface_written: None,
-                };
-                if tnc.continued {
-                    tnc.defining = Some(def);
-                } else {
-                    tnc.cycle = Some(def);
-                }
-                Ok(false)
-            }
             8 | 10 | 11 | 19 | 26 | 247 => Err(at(
                 col(2),
                 format!(
@@ -1270,7 +1255,8 @@ impl Reader<'_> {
                 ),
             )),
             _ => {
-                // Other machining and probing cycles: defined here, refused if called.
+                // Drilling cycles (200–209) and the others, which are refused when
+                // called (`drilling_levels`).
                 let def = CycleDef {
                     number: cycle,
                     line: number,
