@@ -834,23 +834,34 @@ fn numbers_past_any_machine_are_refused_where_they_stand() {
 
 #[test]
 fn another_controls_program_is_named_not_misread() {
-    for (program, what) in [
-        (
-            // A TNC block in a G-code program (a TNC program starts with BEGIN PGM).
-            "G0 X0 Y0 Z50\n1 L X+10 Y-5 R0 FMAX\n",
-            "p.nc:2:1: this looks like a Heidenhain TNC conversational program",
-        ),
-        (
-            "N10 DEF REAL _X_HOME\nN20 G0 Z=_Z_HOME\n",
-            "p.nc:1:1: this looks like a Sinumerik program",
-        ),
-        (
-            "N10 TRAORI\n",
-            "p.nc:1:1: this looks like a Sinumerik program",
-        ),
+    // A TNC block in a G-code program (a TNC program starts with BEGIN PGM).
+    let err = compensate("G0 X0 Y0 Z50\n1 L X+10 Y-5 R0 FMAX\n").unwrap_err();
+    assert!(
+        err.contains("p.nc:2:1: this looks like a Heidenhain TNC conversational program"),
+        "{err}"
+    );
+    // A Sinumerik program is read as one; read as G-code (--dialect iso) it is named.
+    let m = machine();
+    let errors = random_errors(&m, &mut Lcg(7));
+    for program in [
+        "N10 DEF REAL _Z_HOME\nN20 _Z_HOME=50\nN30 G0 X0 Y0 Z=_Z_HOME\n",
+        "N10 G0 X0 Y0 Z50\nN20 TRAORI\n",
     ] {
-        let err = compensate(program).unwrap_err();
-        assert!(err.contains(what), "{err}");
+        compensate(program).unwrap();
+        let iso = Options {
+            dialect: Some(nccomp::nc::Dialect::Iso),
+            ..Options::default()
+        };
+        let err = Compensator::new(&m, &errors, iso)
+            .unwrap()
+            .run(program.as_bytes(), "p.nc", &mut Vec::new())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("this looks like a Sinumerik program")
+                && err.contains("--dialect sinumerik"),
+            "{err}"
+        );
     }
     // A G-code block's comment is not a dialect: LinuxCNC's (MSG, …) stays G-code.
     let err = compensate("G0 X0 Y0 Z50\nG41 (MSG, cutter comp)\n").unwrap_err();

@@ -67,8 +67,9 @@ pub(super) struct PassArgs {
     #[arg(long, value_name = "URAD", default_value_t = 10.0)]
     angular_tolerance: f64,
     /// The programs' language: `auto` reads each program's from its text (a Heidenhain
-    /// program starts with a numbered `BEGIN PGM`), `iso` G-code, `heidenhain` TNC
-    /// conversational.
+    /// program starts with a numbered `BEGIN PGM`; a Sinumerik program has DEF, TRAORI,
+    /// CYCLE800, MSG, T="…" or another Siemens instruction in its first 200 lines), `iso`
+    /// G-code, `heidenhain` TNC conversational, `sinumerik` Siemens 840D.
     #[arg(long, value_name = "DIALECT", default_value = "auto")]
     dialect: DialectArg,
 }
@@ -79,6 +80,7 @@ enum DialectArg {
     Auto,
     Iso,
     Heidenhain,
+    Sinumerik,
 }
 
 /// `--tolerance`: a distance in mm, or `off`.
@@ -187,6 +189,7 @@ impl PassArgs {
                 DialectArg::Auto => None,
                 DialectArg::Iso => Some(crate::nc::Dialect::Iso),
                 DialectArg::Heidenhain => Some(crate::nc::Dialect::Heidenhain),
+                DialectArg::Sinumerik => Some(crate::nc::Dialect::Sinumerik),
             },
             ..Options::default()
         })

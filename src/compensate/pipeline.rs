@@ -258,7 +258,7 @@ impl Pass<'_> {
             out,
         };
         match cx.motion.kind {
-            MoveKind::Cycle if b.state.modal.dialect == nc::Dialect::Heidenhain => {
+            MoveKind::Cycle if b.state.modal.dialect != nc::Dialect::Iso => {
                 run(&mut super::tnc_cycles::TncCycleMode::default(), &mut b)
             }
             MoveKind::Cycle => match super::cycles::repeats(cx)? {

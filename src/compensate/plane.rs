@@ -59,10 +59,10 @@ impl Pass<'_> {
             ));
         }
         let q = self.plane_rotaries(&plane, state).map_err(|why| {
-            let what = if state.modal.dialect == crate::nc::Dialect::Heidenhain {
-                "turning the rotary axes to the PLANE"
-            } else {
-                "G53.1"
+            let what = match state.modal.dialect {
+                crate::nc::Dialect::Heidenhain => "turning the rotary axes to the PLANE",
+                crate::nc::Dialect::Sinumerik => "CYCLE800's turn of the rotary axes",
+                crate::nc::Dialect::Iso => "G53.1",
             };
             cx.refuse(col, format!("{what} cannot be compensated: {why}"))
         })?;
@@ -87,6 +87,8 @@ impl Pass<'_> {
             state.uncertain &= !bit;
             state.unsettled &= !bit;
         }
+        // CYCLE800 retracts the linear axes it names to the machine's own positions first.
+        state.pos.unknown |= cx.motion.homed;
         self.enter_plane(state);
         Ok(())
     }

@@ -85,10 +85,13 @@ impl Mode for TncCycleMode {
                 "it starts where an axis is at a place nccomp does not know (after a machine move: M91, M92 without a known reference)".into(),
             ));
         }
-        let Some(def) = state.modal.tnc.as_ref().and_then(|t| t.cycle.clone()) else {
+        let Some(def) = state.modal.called_cycle().cloned() else {
             return Err(Self::refuse(cx, "no cycle is defined".into()));
         };
-        let levels = heidenhain::drilling_levels(&def).map_err(|why| Self::refuse(cx, why))?;
+        let mut levels = heidenhain::drilling_levels(&def).map_err(|why| Self::refuse(cx, why))?;
+        if let Some(call) = def.siemens {
+            levels[3] = call.end;
+        }
         let zu = Unit::inch(state.modal.inch);
         self.levels = levels.map(|x| zu.to_mm(x));
         self.def = Some(def);
@@ -238,10 +241,12 @@ impl Mode for TncCycleMode {
                 end.q[vz]
             }
         };
-        // The surface coordinate that puts the corrected bottom where the control drills.
-        let (text_decimals, programmed) = surface_text(def).unwrap_or((0, zu.of_mm(surface)));
+        // The surface coordinate (a Sinumerik call: the argument that sets the depth) that
+        // puts the corrected bottom where the control drills.
+        let anchor = anchor_of(def, surface, bottom);
+        let (text_decimals, programmed) = surface_text(def).unwrap_or((0, zu.of_mm(anchor)));
         let d = text_decimals.max(pass.res_decimals(vz, zu));
-        let needed = zu.of_mm(surface + (corrected_bottom - bottom));
+        let needed = zu.of_mm(anchor + (corrected_bottom - bottom));
         let mut held = def.surface_written.unwrap_or(programmed);
         if !same_text(held, needed, d) {
             let mut number = String::new();
@@ -251,7 +256,7 @@ impl Mode for TncCycleMode {
             out.edits.insert(0, Edit { at: 0..0, text });
             out.summary.words_changed += 1;
             let written: f64 = number.parse().unwrap_or(needed);
-            if let Some(c) = state.modal.tnc.as_mut().and_then(|t| t.cycle.as_mut()) {
+            if let Some(c) = state.modal.called_cycle_mut() {
                 c.surface_written = Some(written);
             }
             if let Some(d) = self.def.as_mut() {
@@ -261,7 +266,7 @@ impl Mode for TncCycleMode {
         }
         // What the control is told: the hole's bottom as the written words and surface
         // put it.
-        let bottom_written = zu.to_mm(held) + (bottom - surface);
+        let bottom_written = zu.to_mm(held) + (bottom - anchor);
         match self.frame {
             Some(frame) => {
                 let tip = Vector3::new(state.tip_written[0], state.tip_written[1], bottom_written);
@@ -284,7 +289,12 @@ impl Mode for TncCycleMode {
         let zu = Unit::inch(state.modal.inch);
         let [surface, _, _, end] = self.levels;
         let held = def.surface_written.map_or(surface, |s| zu.to_mm(s));
-        let (z_nominal, z_written) = (end, held + (end - surface));
+        let z_written = match def.siemens {
+            // A Sinumerik cycle ends at its retraction plane, whatever the depth.
+            Some(_) => end,
+            None => held + (end - surface),
+        };
+        let z_nominal = end;
         let vz = self.vars[2];
         if let Some(frame) = &self.frame {
             state.tip_nominal[2] = z_nominal;
@@ -319,8 +329,25 @@ impl Mode for TncCycleMode {
     }
 }
 
-/// The decimals and value of the definition's `Q203=` as written.
+/// The level the rewritten value stands for: the surface Q203, or a Sinumerik call's
+/// depth DP (its bottom) or reference plane RFP (its surface).
+fn anchor_of(def: &CycleDef, surface: f64, bottom: f64) -> f64 {
+    match def.siemens {
+        Some(c) if c.argument == 3 => bottom,
+        _ => surface,
+    }
+}
+
+/// The decimals and value of the definition's `Q203=` (a Sinumerik call: the argument it
+/// rewrites) as written.
 fn surface_text(def: &CycleDef) -> Option<(u8, f64)> {
+    if let Some(call) = def.siemens {
+        let line = def.text.first()?;
+        let (_, raw) = siemens_argument(line, call.argument)?;
+        let text = std::str::from_utf8(raw).ok()?.trim();
+        let decimals = text.split_once('.').map_or(0, |(_, f)| f.len());
+        return Some((u8::try_from(decimals).ok()?, text.parse().ok()?));
+    }
     def.text.iter().find_map(|line| {
         let (_, value) = value_at(line, b"Q203=")?;
         let text = std::str::from_utf8(value).ok()?;
@@ -343,6 +370,27 @@ fn value_at<'a>(line: &'a [u8], key: &[u8]) -> Option<(usize, &'a [u8])> {
 /// block inserted before the calling line, each with the line's ending.
 fn copy_with_surface(cx: &Cx<'_, '_>, def: &CycleDef, number: &str, shift: u64) -> Vec<u8> {
     let ending = Editor::ending(cx.line.ending);
+    if let Some(call) = def.siemens {
+        // `MCALL CYCLE81(…)` with the argument replaced, without its block number (a
+        // Sinumerik block needs none).
+        let mut line = def.text.first().cloned().unwrap_or_default();
+        if let Some((start, raw)) = siemens_argument(&line, call.argument) {
+            let lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
+            let trail = raw
+                .iter()
+                .rev()
+                .take_while(|b| b.is_ascii_whitespace())
+                .count();
+            line.splice(start + lead..start + raw.len() - trail, number.bytes());
+        }
+        let from = line
+            .windows(5)
+            .position(|w| w.eq_ignore_ascii_case(b"MCALL"))
+            .unwrap_or(0);
+        let mut text = line[from..].to_vec();
+        text.extend_from_slice(ending.as_bytes());
+        return text;
+    }
     let own = heidenhain::number_of(cx.line.content, cx.tokens);
     let mut text = Vec::new();
     for (k, line) in def.text.iter().enumerate() {
@@ -370,4 +418,15 @@ fn copy_with_surface(cx: &Cx<'_, '_>, def: &CycleDef, number: &str, shift: u64) 
         text.extend_from_slice(ending.as_bytes());
     }
     text
+}
+
+/// Argument `k` of the `CYCLE8…(…)` call in a Sinumerik line: where it starts and its bytes.
+fn siemens_argument(line: &[u8], k: usize) -> Option<(usize, &[u8])> {
+    let start = line
+        .windows(5)
+        .position(|w| w.eq_ignore_ascii_case(b"CYCLE"))?;
+    let len = line[start..].iter().position(|&b| b == b')')? + 1;
+    let call = &line[start..start + len];
+    let (at, raw) = *crate::program::sinumerik::arguments(call)?.get(k)?;
+    Some((start + at, raw))
 }

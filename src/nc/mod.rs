@@ -9,6 +9,7 @@ pub mod edit;
 pub mod heidenhain;
 pub mod number;
 mod parse;
+pub mod sinumerik;
 
 pub(crate) use parse::to_f64;
 pub use parse::{lines, parse_line};
@@ -23,11 +24,15 @@ pub enum Dialect {
     Iso,
     /// Heidenhain TNC conversational language (Klartext, `.h` files).
     Heidenhain,
+    /// Siemens Sinumerik 840D language (`.mpf`, `.spf` files).
+    Sinumerik,
 }
 
 impl Dialect {
     /// The dialect of a program's text: Heidenhain when its first line that is not empty
-    /// is a numbered `BEGIN PGM` (the control writes every program so), else ISO.
+    /// is a numbered `BEGIN PGM` (the control writes every program so), Sinumerik when one
+    /// of its first 200 lines is one only Sinumerik writes ([`sinumerik::looks_like`]),
+    /// else ISO.
     pub fn detect(src: &[u8]) -> Dialect {
         let first = lines(src)
             .map(|l| l.content.trim_ascii())
@@ -37,6 +42,11 @@ impl Dialect {
         let digits = body.iter().take_while(|b| b.is_ascii_digit()).count();
         if digits > 0 && body[digits..].trim_ascii_start().starts_with(b"BEGIN PGM") {
             Dialect::Heidenhain
+        } else if lines(src)
+            .take(200)
+            .any(|l| sinumerik::looks_like(l.content))
+        {
+            Dialect::Sinumerik
         } else {
             Dialect::Iso
         }
@@ -47,6 +57,7 @@ impl Dialect {
         match self {
             Dialect::Iso => parse_line(content, out),
             Dialect::Heidenhain => heidenhain::parse_line(content, out),
+            Dialect::Sinumerik => sinumerik::parse_line(content, out),
         }
     }
 
@@ -55,6 +66,7 @@ impl Dialect {
         match self {
             Dialect::Iso => "iso",
             Dialect::Heidenhain => "heidenhain",
+            Dialect::Sinumerik => "sinumerik",
         }
     }
 }

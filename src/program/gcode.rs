@@ -85,38 +85,7 @@ fn foreign_dialect(content: &[u8]) -> Option<&'static str> {
         return Some("a Heidenhain TNC conversational program (`BEGIN PGM`, `L X+…`)");
     }
     // Without comments: `(MSG, …)` is LinuxCNC's, not a Sinumerik instruction.
-    let mut code = String::new();
-    let mut depth = 0;
-    for c in body.chars().take_while(|&c| c != ';') {
-        match c {
-            '(' => depth += 1,
-            ')' => depth = (depth - 1).max(0),
-            _ if depth == 0 => code.push(c),
-            _ => {}
-        }
-    }
-    let body = code
-        .trim_start_matches('N')
-        .trim_start_matches(|c: char| c.is_ascii_digit());
-    let words = body.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_'));
-    const SINUMERIK: [&str; 14] = [
-        "DEF",
-        "MSG",
-        "TRAORI",
-        "TRAFOOF",
-        "SUPA",
-        "CYCLE800",
-        "CYCLE81",
-        "CYCLE83",
-        "WORKPIECE",
-        "STOPRE",
-        "MCALL",
-        "ATRANS",
-        "AROT",
-        "FNORM",
-    ];
-    let assigns_named = body.contains("=_") || body.trim_start().starts_with('_');
-    if assigns_named || words.clone().any(|w| SINUMERIK.contains(&w)) {
+    if nc::sinumerik::looks_like(content) {
         return Some("a Sinumerik program (`DEF`, `TRAORI`, `CYCLE800`, `X=_NAME`)");
     }
     None
@@ -143,8 +112,10 @@ impl Reader<'_> {
         at: At<'_>,
         motion: &mut BlockMotion,
     ) -> Result<bool, Diagnostic> {
-        if modal.dialect == nc::Dialect::Heidenhain {
-            return self.read_tnc(line, tokens, modal, at, motion);
+        match modal.dialect {
+            nc::Dialect::Heidenhain => return self.read_tnc(line, tokens, modal, at, motion),
+            nc::Dialect::Sinumerik => return self.read_840d(line, tokens, modal, at, motion),
+            nc::Dialect::Iso => {}
         }
         self.select(line, tokens, modal, at)
             .and_then(|()| self.read_words(line, tokens, modal, at, motion))
@@ -159,7 +130,7 @@ impl Reader<'_> {
                 Some(dialect) => at(
                     0,
                     format!(
-                        "this looks like {dialect}: nccomp reads ISO G-code programs (Fanuc, Haas, LinuxCNC style) and Heidenhain TNC programs; this dialect is not read yet (expected G-code such as G1 X10.5)"
+                        "this looks like {dialect}, in a program read as G-code: nccomp reads a Sinumerik program as one when one of its first 200 lines has a Siemens instruction (DEF, TRAORI, CYCLE800, MSG, T=\"…\" …), or with --dialect sinumerik (expected G-code such as G1 X10.5 here)"
                     ),
                 ),
                 // Lines ended by CR alone run together into one.
@@ -496,7 +467,7 @@ impl Reader<'_> {
 
     /// Follow the block's T word and spindle codes: the tool chain and spindle mode the
     /// block runs in.
-    fn select(
+    pub(super) fn select(
         &self,
         line: &nc::Line<'_>,
         tokens: &[Token],
@@ -627,7 +598,7 @@ impl Reader<'_> {
 
     /// Check that every word is understood, follow the modal words, and say which axis
     /// words the block moves (false: it moves nothing).
-    fn read_words(
+    pub(super) fn read_words(
         &self,
         line: &nc::Line<'_>,
         tokens: &[Token],

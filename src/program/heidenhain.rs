@@ -73,6 +73,18 @@ pub struct CycleDef {
     /// The surface coordinate (Q203) the control now holds for it, where nccomp has
     /// written a copy of the definition with another (program units).
     pub surface_written: Option<f64>,
+    /// A Sinumerik drilling cycle (`MCALL CYCLE81(…)`) read as this definition.
+    pub siemens: Option<SiemensCall>,
+}
+
+/// How a Sinumerik drilling call is written again with another depth: the argument
+/// rewritten (0-based: 3 the absolute depth DP, or 1 the reference plane RFP when the
+/// depth is DPR, relative to it), and the retraction plane RTP the tool ends at (program
+/// units), which the rewritten argument does not move.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SiemensCall {
+    pub argument: usize,
+    pub end: f64,
 }
 
 /// A cycle parameter's value.
@@ -1263,6 +1275,7 @@ impl Reader<'_> {
                     params: Vec::new(),
                     text: vec![content.to_vec()],
                     surface_written: None,
+                    siemens: None,
                 };
                 if tnc.continued {
                     tnc.defining = Some(def);

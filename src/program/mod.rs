@@ -23,6 +23,7 @@ pub mod gcode;
 pub mod heidenhain;
 pub mod moves;
 pub mod params;
+pub mod sinumerik;
 
 pub use codes::{Code, CodeName, MachineCodes, Tcp};
 
@@ -310,6 +311,8 @@ pub struct Modal {
     pub dialect: crate::nc::Dialect,
     /// What the Heidenhain front end keeps between blocks.
     pub tnc: Option<Box<heidenhain::Tnc>>,
+    /// What the Sinumerik front end keeps between blocks.
+    pub siemens: Option<Box<sinumerik::Siemens>>,
 }
 
 /// Cut a line into tokens in the program's dialect, with the parameters the program has set
@@ -326,6 +329,12 @@ pub fn tokenize(modal: &Modal, content: &[u8], tokens: &mut Vec<crate::nc::Token
                 heidenhain::substitute(content, tokens, tnc);
             }
         }
+        crate::nc::Dialect::Sinumerik => {
+            crate::nc::sinumerik::parse_line(content, tokens);
+            if let Some(s) = &modal.siemens {
+                sinumerik::substitute(content, tokens, s);
+            }
+        }
     }
 }
 
@@ -339,6 +348,26 @@ impl Modal {
                 ..heidenhain::Tnc::default()
             })
         });
+        self.siemens = (dialect == crate::nc::Dialect::Sinumerik).then(Box::default);
+    }
+
+    /// The drilling cycle a cycle block calls: a TNC program's last CYCL DEF, a Sinumerik
+    /// program's MCALL.
+    pub fn called_cycle(&self) -> Option<&heidenhain::CycleDef> {
+        match (&self.tnc, &self.siemens) {
+            (Some(t), _) => t.cycle.as_ref(),
+            (_, Some(s)) => s.mcall.as_ref(),
+            _ => None,
+        }
+    }
+
+    /// [`Modal::called_cycle`], to change.
+    pub fn called_cycle_mut(&mut self) -> Option<&mut heidenhain::CycleDef> {
+        match (&mut self.tnc, &mut self.siemens) {
+            (Some(t), _) => t.cycle.as_mut(),
+            (_, Some(s)) => s.mcall.as_mut(),
+            _ => None,
+        }
     }
 
     /// The state at the program start, in tool chain `chain`.
@@ -403,6 +432,7 @@ impl Modal {
             spindle: Spindle::Free,
             dialect: crate::nc::Dialect::Iso,
             tnc: None,
+            siemens: None,
         }
     }
 

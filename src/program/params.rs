@@ -29,7 +29,8 @@ impl Params {
         self.values.iter().find(|(n, _)| n == name).map(|(_, v)| *v)
     }
 
-    fn set(&mut self, name: String, value: Known) {
+    /// Set parameter `name` to `value` (`None`: not a constant).
+    pub fn set(&mut self, name: String, value: Known) {
         match self.values.iter_mut().find(|(n, _)| *n == name) {
             Some(slot) => slot.1 = value,
             None => self.values.push((name, value)),
@@ -156,11 +157,22 @@ pub fn substitute(content: &[u8], tokens: &mut [Token], params: &Params) {
 /// else: a parameter not known, a function (SIN …), MOD or a logical operator, more
 /// decimals.
 pub fn evaluate(text: &[u8], params: &Params) -> Option<(f64, u8)> {
+    evaluate_in(text, params, false)
+}
+
+/// [`evaluate`] in Sinumerik's syntax: `( )` brackets, and variables by name (`_DEPTH`,
+/// `R12`, uppercased in `params`).
+pub fn evaluate_840d(text: &[u8], params: &Params) -> Option<(f64, u8)> {
+    evaluate_in(text, params, true)
+}
+
+fn evaluate_in(text: &[u8], params: &Params, siemens: bool) -> Option<(f64, u8)> {
     let mut p = Expr {
         text,
         at: 0,
         params,
         depth: 0,
+        siemens,
     };
     let value = p.sum()?;
     p.blank();
@@ -181,6 +193,8 @@ struct Expr<'t> {
     params: &'t Params,
     /// Brackets and signs open (a line may hold a million: the reader's stack may not).
     depth: u32,
+    /// Sinumerik's syntax.
+    siemens: bool,
 }
 
 /// The most brackets and unary signs nested that [`evaluate`] reads.
@@ -251,12 +265,38 @@ impl Expr<'_> {
         if self.next_is(b'+') {
             return self.factor();
         }
-        if self.next_is(b'[') {
+        let (open, close) = if self.siemens {
+            (b'(', b')')
+        } else {
+            (b'[', b']')
+        };
+        if self.next_is(open) {
             let v = self.sum()?;
-            return self.next_is(b']').then_some(v);
+            return self.next_is(close).then_some(v);
         }
         self.blank();
         let start = self.at;
+        if self.siemens
+            && self
+                .text
+                .get(self.at)
+                .is_some_and(|b| b.is_ascii_alphabetic() || *b == b'_')
+        {
+            while self
+                .text
+                .get(self.at)
+                .is_some_and(|b| b.is_ascii_alphanumeric() || *b == b'_')
+            {
+                self.at += 1;
+            }
+            let name = String::from_utf8_lossy(&self.text[start..self.at]).to_ascii_uppercase();
+            // A function's name (SIN, TRUNC …) is followed by its bracket.
+            self.blank();
+            if self.text.get(self.at) == Some(&b'(') {
+                return None;
+            }
+            return self.params.get(&name).flatten().map(|(v, _)| v);
+        }
         if self.text.get(self.at) == Some(&b'#') {
             self.at += 1;
             if self.text.get(self.at) == Some(&b'<') {
