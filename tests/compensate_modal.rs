@@ -1059,3 +1059,34 @@ fn rollover_is_for_rotary_axes_without_travel() {
         assert!(err.contains("m.toml:"), "{err}");
     }
 }
+
+/// A G91 block after an arc adds to the arc's end (its end words), not to where the arc
+/// started.
+#[test]
+fn a_g91_block_after_an_arc_starts_at_the_arcs_end() {
+    let (m, e) = ac_fixture();
+    let head =
+        "G17 G21 G90 G94\nG0 X10 Y20 Z50 A0 C0\nG1 Z-2.5 F300\nX30 Y20 A-15 C30\nG2 X40 Y30 R10\n";
+    let (g90, _) = run(&m, &e, &format!("{head}G1 X45 Y27\nM30\n")).unwrap();
+    let (g91, _) = run(&m, &e, &format!("{head}G91 G1 X5 Y-3\nG90\nM30\n")).unwrap();
+    let value = |line: &str, letter: char| -> f64 {
+        line.split_whitespace()
+            .find_map(|w| w.strip_prefix(letter))
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let (arc, abs, inc) = (
+        g90.lines().nth(4).unwrap(),
+        g90.lines().nth(5).unwrap(),
+        g91.lines().nth(5).unwrap(),
+    );
+    assert_eq!(arc, g91.lines().nth(4).unwrap());
+    for letter in ['X', 'Y'] {
+        let reached = value(arc, letter) + value(inc, letter);
+        assert!(
+            (reached - value(abs, letter)).abs() < 1e-9,
+            "{letter}: {arc} + {inc} reaches {reached}, the G90 program {abs}"
+        );
+    }
+}

@@ -93,6 +93,18 @@ impl Mode for ArcMode {
             }
         }
         pass.check_travel(&path.end, col, cx)?;
+        if state.modal.dialect != crate::nc::Dialect::Heidenhain {
+            // The end words, exactly: a G91 block after the arc adds to them.
+            state.pos.advance(
+                &pass.axes,
+                cx.line.content,
+                cx.tokens,
+                cx.motion,
+                &state.modal,
+                cx.at,
+                &mut state.units,
+            )?;
+        }
         state.pos.nominal = path.end;
         self.path = Some(path);
         *q = path.end;

@@ -207,6 +207,15 @@ impl<'a> Editor<'a> {
             ),
             None => (false, &self.content[0..0]),
         };
+        // Spaces or Sinumerik's `=`; not an address's digits (`A3=`) or a neighbour's
+        // `=IC(`, which are its own.
+        let gap: &[u8] = if gap.iter().all(|b| matches!(b, b' ' | b'\t' | b'=')) {
+            gap
+        } else if gap.contains(&b'=') {
+            b"="
+        } else {
+            b""
+        };
         let sep = self.style().separator;
         let letter = if lowercase {
             letter.to_ascii_lowercase()

@@ -222,6 +222,18 @@ fn follow(
             }
             let arc = arc_path(axes, tokens, motion, clockwise, pos, modal, 0)
                 .map_err(|why| at(col, format!("this arc cannot be followed: {why}")))?;
+            if modal.dialect != crate::nc::Dialect::Heidenhain {
+                // The end words, exactly: a G91 block after the arc adds to them.
+                pos.advance(
+                    axes,
+                    line.content,
+                    tokens,
+                    motion,
+                    modal,
+                    at,
+                    &mut [0; MAX_AXES],
+                )?;
+            }
             pos.nominal = arc.end;
             Shape::Arc(arc)
         }

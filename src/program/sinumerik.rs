@@ -228,10 +228,15 @@ impl Reader<'_> {
         };
         let mut st = Statements::default();
         let first_other = tokens.iter().position(|t| t.kind == TokenKind::Other);
-        if let Some(i) = first_other
-            && text(content, &tokens[i]).eq_ignore_ascii_case("DEF")
-        {
-            return self.declaration(content, tokens[i].span.end, optional, s, at);
+        if let Some(i) = first_other {
+            let first = text(content, &tokens[i]);
+            if first.eq_ignore_ascii_case("DEF") {
+                return self.declaration(content, tokens[i].span.end, optional, s, at);
+            }
+            // The program's header (`%_N_PART_MPF`), as the control's file names it.
+            if first.starts_with("%_N_") && i == 0 && tokens.len() == 1 {
+                return Ok(false);
+            }
         }
         for (i, t) in tokens.iter().enumerate() {
             if t.kind != TokenKind::Other {
@@ -804,6 +809,9 @@ impl Reader<'_> {
             self.apply_frames(modal, s);
             return Ok(false);
         }
+        if s.trans != [0.0; 3] || s.rot.is_some() {
+            return Err(at(col, "CYCLE800 with a programmable frame in force (TRANS, ATRANS, ROT, AROT): whether the swivel keeps or clears it is the control's setting, not followed (expected TRANS alone, which clears the frame, before CYCLE800)".into()));
+        }
         const NAMES: [&str; 16] = [
             "_FR", "_TC", "_ST", "_MODE", "_X0", "_Y0", "_Z0", "_A", "_B", "_C", "_X1", "_Y1",
             "_Z1", "_DIR", "_FR_I", "_DMODE",
@@ -902,9 +910,6 @@ impl Reader<'_> {
             rotation: base_rotation * rotation,
             dir: dir as i8,
         });
-        // The programmable frame is cleared by the swivel (the cycle writes the frame).
-        s.trans = [0.0; 3];
-        s.rot = None;
         self.apply_frames(modal, s);
         // The retraction before the turn, to positions of the machine's own.
         let words = self.axes(modal.chain);
