@@ -715,7 +715,7 @@ impl TcpMode {
             !same_text(old, last.vector[c], decimals(c))
         });
         let mut editor = cx.editor(out.edits);
-        let mut missing: Vec<(u8, String)> = Vec::new();
+        let mut missing: Vec<(usize, String)> = Vec::new();
         for (c, word) in vector_words.iter().enumerate() {
             let d = decimals(c);
             let value = last.vector[c];
@@ -730,7 +730,7 @@ impl TcpMode {
                 None => {
                     let mut text = String::new();
                     write_fixed(value, d, &mut text);
-                    missing.push((b"IJK"[c], text));
+                    missing.push((c, text));
                 }
             }
         }
@@ -748,8 +748,17 @@ impl TcpMode {
                 .map(|&i| cx.tokens[i].span.end)
                 .max()
                 .unwrap_or(0);
-            let words: Vec<(u8, &str)> = missing.iter().map(|(l, t)| (*l, t.as_str())).collect();
-            editor.insert_words_at(end, &words);
+            let style = editor.style();
+            let mut text = String::new();
+            for (c, number) in &missing {
+                text.push_str(style.separator);
+                text.push_str(&vector_word(&style, state.modal.dialect, *c, number));
+            }
+            drop(editor);
+            out.edits.push(crate::nc::Edit {
+                at: end..end,
+                text: text.into_bytes(),
+            });
             out.summary.words_added += missing.len();
         }
     }
@@ -890,7 +899,7 @@ impl TcpMode {
                         .unwrap_or(MAX_VECTOR_DECIMALS)
                         .max(decimals_for(pass.machine.resolution.rotary.to_radians()));
                     write_fixed(x, d, &mut number);
-                    words.push(style.word(b"IJK"[c], &number));
+                    words.push(vector_word(&style, state.modal.dialect, c, &number));
                 }
                 state.vector_written = piece.vector;
             }
@@ -1048,5 +1057,21 @@ impl Pass<'_> {
         state.vector_nominal = nominal.o.into();
         state.vector_written = written.o.into();
         Ok(())
+    }
+}
+
+/// Component `c` of the tool vector as a word: `I`, `J`, `K` (G43.5), or Sinumerik's `A3=`,
+/// `B3=`, `C3=` (TRAORI).
+fn vector_word(
+    style: &crate::nc::edit::Style,
+    dialect: crate::nc::Dialect,
+    c: usize,
+    number: &str,
+) -> String {
+    match dialect {
+        crate::nc::Dialect::Sinumerik => {
+            format!("{}3={}", style.letter(b"ABC"[c]), style.number(number))
+        }
+        _ => style.word(b"IJK"[c], number),
     }
 }

@@ -499,6 +499,65 @@ impl Reader<'_> {
             modal.tcp = st.traori.is_some();
             modal.tcp_vector = false;
         }
+        // Under TRAORI a block gives the tool's orientation by the rotary axes' positions or
+        // by a vector (A3= B3= C3=, read as I J K), block by block.
+        let mut vector: Option<usize> = None;
+        let mut centre = false;
+        let mut rotary = false;
+        for t in tokens {
+            let TokenKind::Word(w) = &t.kind else {
+                continue;
+            };
+            match w.letter {
+                b'I' | b'J' | b'K' => {
+                    if matches!(
+                        content[t.span.start].to_ascii_uppercase(),
+                        b'A' | b'B' | b'C'
+                    ) {
+                        vector.get_or_insert(t.span.start);
+                    } else {
+                        centre = true;
+                    }
+                }
+                b'R' => centre = true,
+                l => {
+                    let var = l
+                        .is_ascii_uppercase()
+                        .then(|| words.var_of_letter[(l - b'A') as usize])
+                        .flatten();
+                    rotary |= var.is_some_and(|v| !words.is_linear(v));
+                }
+            }
+        }
+        let arc_code = tokens.iter().any(|t| {
+            matches!(&t.kind, TokenKind::Word(w) if w.letter == b'G' && matches!(w.number(), Some(2.0 | 3.0)))
+        });
+        let line_code = tokens.iter().any(|t| {
+            matches!(&t.kind, TokenKind::Word(w) if w.letter == b'G' && matches!(w.number(), Some(0.0 | 1.0)))
+        });
+        let arc = arc_code || (modal.motion == Some(super::Motion::Arc) && !line_code);
+        if let Some(col) = vector {
+            let why = if !modal.tcp {
+                Some("a tool vector (A3=, B3=, C3=) outside TRAORI")
+            } else if rotary {
+                Some("a tool vector (A3=, B3=, C3=) and rotary axis words in one block")
+            } else if centre || arc {
+                Some("a tool vector (A3=, B3=, C3=) in an arc block")
+            } else {
+                None
+            };
+            if let Some(why) = why {
+                return Err(at(
+                    col,
+                    format!(
+                        "{why} cannot be compensated (expected the orientation by rotary axis words or by a vector, in a straight move under TRAORI)"
+                    ),
+                ));
+            }
+            modal.tcp_vector = true;
+        } else if modal.tcp && (rotary || arc) {
+            modal.tcp_vector = false;
+        }
         if let Some((col, kind)) = st.frame {
             return self.frame(content, tokens, kind, col, st.rpl, modal, s, at);
         }
