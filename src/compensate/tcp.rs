@@ -754,7 +754,6 @@ impl TcpMode {
                 text.push_str(style.separator);
                 text.push_str(&vector_word(&style, state.modal.dialect, *c, number));
             }
-            drop(editor);
             out.edits.push(crate::nc::Edit {
                 at: end..end,
                 text: text.into_bytes(),
