@@ -207,7 +207,7 @@ impl Summary {
         }
         if self.plane_blocks > 0 {
             out.push(format!(
-                "{} in tilted working planes (G68.2, PLANE): the rotary axes stood where the controller turned them; direction error left there up to {}",
+                "{} in tilted working planes (G68.2, PLANE, CYCLE800): the rotary axes stood where the controller turned them; direction error left there up to {}",
                 count(self.plane_blocks, "block"),
                 urad(self.plane_direction)
             ));

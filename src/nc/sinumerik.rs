@@ -200,7 +200,7 @@ pub fn looks_like(content: &[u8]) -> bool {
             _ => {}
         }
     }
-    const SINUMERIK: [&str; 17] = [
+    const SINUMERIK: [&str; 21] = [
         "DEF",
         "MSG",
         "TRAORI",
@@ -218,6 +218,10 @@ pub fn looks_like(content: &[u8]) -> bool {
         "AROT",
         "FNORM",
         "G153",
+        "G700",
+        "G710",
+        "G641",
+        "G642",
     ];
     let assigns_named = code.contains("=_") || code.trim_start().starts_with('_');
     let quoted_tool = code.contains("T=\"");
