@@ -176,6 +176,17 @@ fn the_command_line_reads_a_sinumerik_program_and_checks_it() {
     ]);
     assert!(given.status.success(), "{}", stderr(&given));
     assert_eq!(stdout(&given), written);
+    // A `.mpf` file is a Sinumerik program whatever its text: its L word is a subprogram
+    // call (refused), not a word G-code would pass over.
+    let plain = dir.join("plain.MPF");
+    std::fs::write(&plain, "N10 G0 X0 Y0 Z50 A0 C0\nN20 L100\nN30 M30\n").unwrap();
+    let out = nccomp(&["check", "-m", M, "-e", E, plain.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let text = format!("{}{}", stdout(&out), stderr(&out));
+    assert!(
+        text.contains("plain.MPF:2:5") && text.contains("subprogram calls"),
+        "{text}"
+    );
 }
 
 /// A block nccomp does not follow is refused where it stands, with what was expected; the
@@ -207,6 +218,7 @@ fn what_is_not_followed_is_refused_with_its_place_and_reason() {
         ("N50 H2", 5, "auxiliary functions"),
         ("N50 L100", 5, "subprogram calls"),
         ("N50 CYCLE81(10,0,1,-5)", 5, "called once"),
+        ("N50 MCALL CYCLE81(10,0,1,-5,5)", 11, "both depths"),
         ("N50 $P_UIFR[1]=CTRANS(X,10)", 5, "system variables"),
         ("N50 G500", 5, "G500"),
         ("N50 TRANS X10 G1", 15, "expected X, Y, Z only"),

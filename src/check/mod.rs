@@ -444,7 +444,7 @@ impl<'m> Checker<'m> {
     ) -> Finding {
         let offset = nc::lines(src).nth(line - 1).map_or(src.len(), |l| {
             let mut tokens = Vec::new();
-            nc::Dialect::detect(src).parse_line(l.content, &mut tokens);
+            nc::Dialect::detect_named(path, src).parse_line(l.content, &mut tokens);
             let first_axis = tokens.iter().find_map(|t| match &t.kind {
                 TokenKind::Word(w) if self.letters.contains(&w.letter) => Some(t.span.start),
                 _ => None,

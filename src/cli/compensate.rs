@@ -66,21 +66,34 @@ pub(super) struct PassArgs {
     /// The tool direction's tolerance along the path, in µrad.
     #[arg(long, value_name = "URAD", default_value_t = 10.0)]
     angular_tolerance: f64,
-    /// The programs' language: `auto` reads each program's from its text (a Heidenhain
-    /// program starts with a numbered `BEGIN PGM`; a Sinumerik program has DEF, TRAORI,
-    /// CYCLE800, MSG, T="…" or another Siemens instruction in its first 200 lines), `iso`
-    /// G-code, `heidenhain` TNC conversational, `sinumerik` Siemens 840D.
+    /// The programs' language: `auto` reads each program's from its file and text (a
+    /// Heidenhain program starts with a numbered `BEGIN PGM`; a Sinumerik program is a
+    /// `.mpf` or `.spf` file, or has DEF, TRAORI, CYCLE800, MSG, T="…" or another Siemens
+    /// instruction in its first 200 lines), `iso` G-code, `heidenhain` TNC conversational,
+    /// `sinumerik` Siemens 840D.
     #[arg(long, value_name = "DIALECT", default_value = "auto")]
     dialect: DialectArg,
 }
 
 /// `--dialect`.
 #[derive(Clone, Copy, clap::ValueEnum)]
-enum DialectArg {
+pub(super) enum DialectArg {
     Auto,
     Iso,
     Heidenhain,
     Sinumerik,
+}
+
+impl DialectArg {
+    /// The dialect given, or `None` for `auto`.
+    pub(super) fn get(self) -> Option<crate::nc::Dialect> {
+        match self {
+            DialectArg::Auto => None,
+            DialectArg::Iso => Some(crate::nc::Dialect::Iso),
+            DialectArg::Heidenhain => Some(crate::nc::Dialect::Heidenhain),
+            DialectArg::Sinumerik => Some(crate::nc::Dialect::Sinumerik),
+        }
+    }
 }
 
 /// `--tolerance`: a distance in mm, or `off`.
@@ -185,12 +198,7 @@ impl PassArgs {
                     direction: v * 1e-6,
                     ..Default::default()
                 }),
-            dialect: match self.dialect {
-                DialectArg::Auto => None,
-                DialectArg::Iso => Some(crate::nc::Dialect::Iso),
-                DialectArg::Heidenhain => Some(crate::nc::Dialect::Heidenhain),
-                DialectArg::Sinumerik => Some(crate::nc::Dialect::Sinumerik),
-            },
+            dialect: self.dialect.get(),
             ..Options::default()
         })
     }

@@ -32,6 +32,10 @@ pub(super) struct ReportArgs {
     /// Axes that keep their programmed values, comma-separated.
     #[arg(long, value_name = "AXES", value_delimiter = ',')]
     hold: Vec<String>,
+    /// The program's language: `auto` (from the file's extension and text), `iso`,
+    /// `heidenhain` or `sinumerik`, as for `compensate`.
+    #[arg(long, value_name = "DIALECT", default_value = "auto")]
+    dialect: super::compensate::DialectArg,
 }
 
 pub(super) fn report(args: &ReportArgs) -> crate::Result<()> {
@@ -54,6 +58,7 @@ pub(super) fn report(args: &ReportArgs) -> crate::Result<()> {
         compensate: Options {
             tool_chain: args.tool_chain.clone(),
             hold: args.hold.clone(),
+            dialect: args.dialect.get(),
             ..Options::default()
         },
         at: args.at.clone(),

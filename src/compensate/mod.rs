@@ -354,7 +354,7 @@ impl<'m> Compensator<'m> {
             return (summary, Vec::new());
         }
         let mut run = Run::new(self, trace);
-        run.program(self.dialect_of(src), src);
+        run.program(self.dialect_of(path, src), src);
         for line in nc::lines(src) {
             if !run.line(&line, path, out) {
                 break;
@@ -363,9 +363,11 @@ impl<'m> Compensator<'m> {
         run.finish_all()
     }
 
-    /// The dialect program `src` is read in (`src`: the program, or its start).
-    pub fn dialect_of(&self, src: &[u8]) -> nc::Dialect {
-        self.dialect.unwrap_or_else(|| nc::Dialect::detect(src))
+    /// The dialect program `src` of file `name` is read in (`src`: the program, or its
+    /// start).
+    pub fn dialect_of(&self, name: &str, src: &[u8]) -> nc::Dialect {
+        self.dialect
+            .unwrap_or_else(|| nc::Dialect::detect_named(name, src))
     }
 
     /// The modal state at the program start.

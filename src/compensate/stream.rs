@@ -543,14 +543,14 @@ impl Compensator<'_> {
         }
         let mut chunks = Chunks::new(input);
         if let Some((first, _, _)) = chunks.next().map_err(read_error)?
-            && self.dialect_of(first) != nc::Dialect::Iso
+            && self.dialect_of(input_name, first) != nc::Dialect::Iso
         {
             // A TNC program calls labels written after its end: the pass reads it whole.
             let mut src = first.to_vec();
             while let Some((chunk, _, _)) = chunks.next().map_err(read_error)? {
                 src.extend_from_slice(chunk);
             }
-            let dialect = self.dialect_of(&src);
+            let dialect = self.dialect_of(input_name, &src);
             let mut pass = Run::new(self, false);
             pass.program(dialect, &src);
             let mut chunks = Chunks::new(&src[..]);

@@ -52,6 +52,19 @@ impl Dialect {
         }
     }
 
+    /// The dialect of the program in file `name`: Sinumerik for a `.mpf` or `.spf` file (the
+    /// control's main programs and subprograms), else [`Dialect::detect`] of its text.
+    pub fn detect_named(name: &str, src: &[u8]) -> Dialect {
+        let ext = std::path::Path::new(name)
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("mpf" | "spf") => Dialect::Sinumerik,
+            _ => Dialect::detect(src),
+        }
+    }
+
     /// Cut a line's content into tokens, in this dialect.
     pub fn parse_line(self, content: &[u8], out: &mut Vec<Token>) {
         match self {

@@ -925,7 +925,7 @@ impl Reader<'_> {
             return Err(at(
                 arg_col(3),
                 format!(
-                    "CYCLE800's _MODE {mode} is not the axis-by-axis mode (bits 7-6 zero): solid, projection and direct rotary-axis angles are not followed (expected 57 for X, Y, Z or 27 for Z, Y, X)"
+                    "CYCLE800's _MODE {mode} is not the axis-by-axis mode (bits 7-6 zero): solid, projection and direct rotary-axis angles are not followed (expected the axis-by-axis mode, such as 57 for X, then Y, then Z, or 27 for Z, then Y, then X)"
                 ),
             ));
         }
@@ -1053,7 +1053,15 @@ impl Reader<'_> {
         let rfp = need(1, "the reference plane RFP")?;
         let sdis = value(2)?.unwrap_or(0.0);
         let (bottom, rewritten) = match (value(3)?, value(4)?) {
-            (Some(dp), _) => (dp, 3),
+            (Some(_), Some(_)) => {
+                return Err(at(
+                    col,
+                    format!(
+                        "{name} gives both depths, DP and DPR: which one the cycle takes is not followed (expected one of them)"
+                    ),
+                ));
+            }
+            (Some(dp), None) => (dp, 3),
             (None, Some(dpr)) => (rfp - dpr.abs(), 1),
             (None, None) => {
                 return Err(at(col, format!("{name} needs the depth DP or DPR")));
