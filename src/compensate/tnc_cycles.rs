@@ -241,17 +241,16 @@ impl Mode for TncCycleMode {
                 end.q[vz]
             }
         };
-        // The surface coordinate (a Sinumerik call: the argument that sets the depth) that
-        // puts the corrected bottom where the control drills.
-        let anchor = anchor_of(def, surface, bottom);
-        let (text_decimals, programmed) = surface_text(def).unwrap_or((0, zu.of_mm(anchor)));
+        // The surface coordinate (a Sinumerik call: the reference plane, its absolute depth
+        // moving with it) that puts the corrected bottom where the control drills.
+        let (text_decimals, programmed) = surface_text(def).unwrap_or((0, zu.of_mm(surface)));
         let d = text_decimals.max(pass.res_decimals(vz, zu));
-        let needed = zu.of_mm(anchor + (corrected_bottom - bottom));
+        let needed = zu.of_mm(surface + (corrected_bottom - bottom));
         let mut held = def.surface_written.unwrap_or(programmed);
         if !same_text(held, needed, d) {
             let mut number = String::new();
             write_fixed(needed, d, &mut number);
-            let text = copy_with_surface(cx, def, &number, state.renumber);
+            let text = copy_with_surface(cx, def, &number, d, state.renumber);
             // Before any word inserted at the line's start (as `Editor::insert_blocks`).
             out.edits.insert(0, Edit { at: 0..0, text });
             out.summary.words_changed += 1;
@@ -266,7 +265,7 @@ impl Mode for TncCycleMode {
         }
         // What the control is told: the hole's bottom as the written words and surface
         // put it.
-        let bottom_written = zu.to_mm(held) + (bottom - anchor);
+        let bottom_written = zu.to_mm(held) + (bottom - surface);
         match self.frame {
             Some(frame) => {
                 let tip = Vector3::new(state.tip_written[0], state.tip_written[1], bottom_written);
@@ -329,21 +328,13 @@ impl Mode for TncCycleMode {
     }
 }
 
-/// The level the rewritten value stands for: the surface Q203, or a Sinumerik call's
-/// depth DP (its bottom) or reference plane RFP (its surface).
-fn anchor_of(def: &CycleDef, surface: f64, bottom: f64) -> f64 {
-    match def.siemens {
-        Some(c) if c.argument == 3 => bottom,
-        _ => surface,
-    }
-}
-
-/// The decimals and value of the definition's `Q203=` (a Sinumerik call: the argument it
-/// rewrites) as written.
+/// The decimals and value of the definition's `Q203=` (a Sinumerik call: its RFP) as
+/// written.
 fn surface_text(def: &CycleDef) -> Option<(u8, f64)> {
-    if let Some(call) = def.siemens {
+    if def.siemens.is_some() {
+        // Its reference plane RFP.
         let line = def.text.first()?;
-        let (_, raw) = siemens_argument(line, call.argument)?;
+        let (_, raw) = siemens_argument(line, 1)?;
         let text = std::str::from_utf8(raw).ok()?.trim();
         let decimals = text.split_once('.').map_or(0, |(_, f)| f.len());
         return Some((u8::try_from(decimals).ok()?, text.parse().ok()?));
@@ -368,21 +359,42 @@ fn value_at<'a>(line: &'a [u8], key: &[u8]) -> Option<(usize, &'a [u8])> {
 
 /// The definition's lines with `Q203=` set to `number` and the block number it takes as a
 /// block inserted before the calling line, each with the line's ending.
-fn copy_with_surface(cx: &Cx<'_, '_>, def: &CycleDef, number: &str, shift: u64) -> Vec<u8> {
+fn copy_with_surface(
+    cx: &Cx<'_, '_>,
+    def: &CycleDef,
+    number: &str,
+    decimals: u8,
+    shift: u64,
+) -> Vec<u8> {
     let ending = Editor::ending(cx.line.ending);
     if let Some(call) = def.siemens {
-        // `MCALL CYCLE81(…)` with the argument replaced, without its block number (a
-        // Sinumerik block needs none).
+        // `MCALL CYCLE81(…)` with RFP (and an absolute DP with it) replaced, without its
+        // block number (a Sinumerik block needs none).
         let mut line = def.text.first().cloned().unwrap_or_default();
-        if let Some((start, raw)) = siemens_argument(&line, call.argument) {
-            let lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
-            let trail = raw
-                .iter()
-                .rev()
-                .take_while(|b| b.is_ascii_whitespace())
-                .count();
-            line.splice(start + lead..start + raw.len() - trail, number.bytes());
+        let replace = |k: usize, text: &str, line: &mut Vec<u8>| {
+            if let Some((start, raw)) = siemens_argument(line, k) {
+                let lead = raw.iter().take_while(|b| b.is_ascii_whitespace()).count();
+                let trail = raw
+                    .iter()
+                    .rev()
+                    .take_while(|b| b.is_ascii_whitespace())
+                    .count();
+                let range = start + lead..start + raw.len().max(lead + trail) - trail;
+                line.splice(range, text.bytes());
+            }
+        };
+        // The later argument first: the earlier one's place stays.
+        if let Some(depth) = call.depth {
+            let surface: f64 = number.parse().unwrap_or(0.0);
+            let own = siemens_argument(&line, 3)
+                .and_then(|(_, raw)| std::str::from_utf8(raw).ok())
+                .and_then(|t| t.trim().split_once('.'))
+                .map_or(0, |(_, f)| u8::try_from(f.len()).unwrap_or(u8::MAX));
+            let mut dp = String::new();
+            write_fixed(surface + depth, decimals.max(own), &mut dp);
+            replace(3, &dp, &mut line);
         }
+        replace(1, number, &mut line);
         let from = line
             .windows(5)
             .position(|w| w.eq_ignore_ascii_case(b"MCALL"))

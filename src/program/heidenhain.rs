@@ -77,13 +77,13 @@ pub struct CycleDef {
     pub siemens: Option<SiemensCall>,
 }
 
-/// How a Sinumerik drilling call is written again with another depth: the argument
-/// rewritten (0-based: 3 the absolute depth DP, or 1 the reference plane RFP when the
-/// depth is DPR, relative to it), and the retraction plane RTP the tool ends at (program
-/// units), which the rewritten argument does not move.
+/// How a Sinumerik drilling call is written again with another depth: its reference
+/// plane RFP (argument 2) takes the new surface, and an absolute depth DP (argument 4)
+/// moves with it by `depth`, DP − RFP as programmed (`None` when the depth is DPR,
+/// relative to RFP); the retraction plane RTP the tool ends at (program units) stays.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SiemensCall {
-    pub argument: usize,
+    pub depth: Option<f64>,
     pub end: f64,
 }
 

@@ -1052,7 +1052,7 @@ impl Reader<'_> {
         let rtp = need(0, "the retraction plane RTP")?;
         let rfp = need(1, "the reference plane RFP")?;
         let sdis = value(2)?.unwrap_or(0.0);
-        let (bottom, rewritten) = match (value(3)?, value(4)?) {
+        let (bottom, depth) = match (value(3)?, value(4)?) {
             (Some(_), Some(_)) => {
                 return Err(at(
                     col,
@@ -1061,8 +1061,8 @@ impl Reader<'_> {
                     ),
                 ));
             }
-            (Some(dp), None) => (dp, 3),
-            (None, Some(dpr)) => (rfp - dpr.abs(), 1),
+            (Some(dp), None) => (dp, Some(dp - rfp)),
+            (None, Some(dpr)) => (rfp - dpr.abs(), None),
             (None, None) => {
                 return Err(at(col, format!("{name} needs the depth DP or DPR")));
             }
@@ -1078,10 +1078,7 @@ impl Reader<'_> {
             ],
             text: vec![content.to_vec()],
             surface_written: None,
-            siemens: Some(super::heidenhain::SiemensCall {
-                argument: rewritten,
-                end: rtp,
-            }),
+            siemens: Some(super::heidenhain::SiemensCall { depth, end: rtp }),
         })
     }
 }
