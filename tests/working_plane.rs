@@ -729,3 +729,17 @@ fn with_the_zero_model_a_plane_program_comes_back_unchanged() {
         assert_eq!(compensate(&setup, &program).unwrap(), program, "{name}");
     }
 }
+
+/// A plane solved where a rotary axis stands a thousand turns out (C999940, found by the
+/// fuzz test): the search that settles the other axes ends (two neighbouring floats there
+/// are farther apart than its 1e-10 stop), and the plane is turned to as anywhere else.
+#[test]
+fn a_plane_far_out_on_a_continuous_axis_is_solved() {
+    let setup = Setup::load("ac_trunnion");
+    let out = compensate(
+        &setup,
+        "G21 G90 G94 G17\nG0 X0 Y0 Z50 A0 C999940\nG68.2 X-20. Y0 Z-10. I-60. J35. K60.\nG53.1\nG1 X0 Y0 Z5 F500\nG69\nM30\n",
+    )
+    .unwrap();
+    assert!(out.contains("G53.1"), "{out}");
+}

@@ -304,7 +304,12 @@ impl Pass<'_> {
                 for &u in order.iter().filter(|&&u| set & (1 << u) == 0) {
                     let (mut lo, mut hi) = (snapped[u] - 0.05, snapped[u] + 0.05);
                     let ratio = (5f64.sqrt() - 1.0) / 2.0;
-                    while hi - lo > 1e-10 {
+                    // A bounded search: at angles of 10⁶° two neighbouring floats are
+                    // farther apart than 1e-10 (the interval would never close).
+                    for _ in 0..64 {
+                        if hi - lo <= 1e-10 {
+                            break;
+                        }
                         let (a, b) = (hi - ratio * (hi - lo), lo + ratio * (hi - lo));
                         let (mut qa, mut qb) = (snapped, snapped);
                         qa[u] = a;
