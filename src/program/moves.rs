@@ -199,6 +199,17 @@ fn follow(
     let all = (1u32 << n) - 1;
     let known = pos.unknown & all == 0;
     let start = pos.nominal;
+    let advance = |pos: &mut Positions| {
+        pos.advance(
+            axes,
+            line.content,
+            tokens,
+            motion,
+            modal,
+            at,
+            &mut [0; MAX_AXES],
+        )
+    };
     let shape = match motion.kind {
         MoveKind::Cycle => {
             return Err(at(
@@ -224,29 +235,13 @@ fn follow(
                 .map_err(|why| at(col, format!("this arc cannot be followed: {why}")))?;
             if modal.dialect != crate::nc::Dialect::Heidenhain {
                 // The end words, exactly: a G91 block after the arc adds to them.
-                pos.advance(
-                    axes,
-                    line.content,
-                    tokens,
-                    motion,
-                    modal,
-                    at,
-                    &mut [0; MAX_AXES],
-                )?;
+                advance(pos)?;
             }
             pos.nominal = arc.end;
             Shape::Arc(arc)
         }
         _ => {
-            pos.advance(
-                axes,
-                line.content,
-                tokens,
-                motion,
-                modal,
-                at,
-                &mut [0; MAX_AXES],
-            )?;
+            advance(pos)?;
             if modal.rapid {
                 Shape::Rapid
             } else {
