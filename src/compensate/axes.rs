@@ -102,7 +102,7 @@ impl Mode for AxesMode {
                     ),
                 )
             })?;
-            pass.split_move(cx, (&previous, &from), &end.q, hold, state, out);
+            pass.split_move(cx, (&previous, &from), end, hold, state, out);
         }
         Ok(())
     }

@@ -200,6 +200,22 @@ struct State {
     shifted: Option<usize>,
     /// The pieces of the move being checked for splitting, reused from block to block.
     pieces: Vec<crate::kinematics::path::Piece>,
+    /// The deviation the last block left at its end: the start of the next move's path
+    /// check, known without evaluating it again.
+    end: Option<EndDeviation>,
+}
+
+/// The deviation the real machine has at the axis values `told` from the nominal pose at
+/// `nominal` (tool length `length`, the kinematics at address `kin`): a value of what it
+/// is keyed by, so a block may use it only where all four are bitwise its own.
+#[derive(Debug, Clone, Copy)]
+struct EndDeviation {
+    kin: usize,
+    told: [f64; MAX_AXES],
+    nominal: [f64; MAX_AXES],
+    length: f64,
+    position: f64,
+    direction: f64,
 }
 
 impl<'m> Compensator<'m> {
@@ -405,6 +421,7 @@ impl<'m> Compensator<'m> {
             presolved: presolve::Presolved::default(),
             spare_texts: Vec::new(),
             pieces: Vec::new(),
+            end: None,
             zero: [0.0; 3],
             shifted: None,
         };

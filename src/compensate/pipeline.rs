@@ -171,7 +171,16 @@ pub(super) fn run<M: Mode>(mode: &mut M, b: &mut Block) -> Result<(), Diagnostic
     };
     mode.path(b, end, hold | at_limit)?;
     mode.write(b, end)?;
-    pass.finish(b.cx, end, at_limit, b.state, b.out)?;
+    let (position, direction) = pass.finish(b.cx, end, at_limit, b.state, b.out)?;
+    // The end deviation is the next move's start, where the target is the nominal pose.
+    b.state.end = mode.direction().is_none().then_some(super::EndDeviation {
+        kin: pass.kin_id(),
+        told: b.state.emitted,
+        nominal: target,
+        length: b.state.modal.length,
+        position,
+        direction,
+    });
     mode.after(b);
     Ok(())
 }
@@ -235,6 +244,11 @@ pub(super) trait Mode {
 }
 
 impl Pass<'_> {
+    /// Which kinematics this pass evaluates (see [`super::EndDeviation`]).
+    pub(super) fn kin_id(&self) -> usize {
+        std::ptr::from_ref(&self.kin) as usize
+    }
+
     /// One block that moves: through the pipeline in its mode.
     pub(super) fn block(
         &self,
@@ -450,7 +464,7 @@ impl Pass<'_> {
         at_limit: u32,
         state: &mut State,
         out: &mut Out<'_>,
-    ) -> Result<(), Diagnostic> {
+    ) -> Result<(f64, f64), Diagnostic> {
         let n = self.kin.len();
         for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
             if let Some([lo, hi]) = self.travel(v) {
@@ -487,7 +501,7 @@ impl Pass<'_> {
                 }
             }
         }
-        let after = self.record(cx.line.number, end, state, out.summary);
+        let (after, direction) = self.record(cx.line.number, end, state, out.summary);
         // A correction never makes the tip worse: where it would, the machine file or the
         // error model is not sound at this pose (a degenerate geometry, an absurd value).
         if after > end.start_position_error.max(1e-3) || after.is_nan() {
@@ -505,19 +519,19 @@ impl Pass<'_> {
                 out.summary.note_at_limit(self.axis_name(v), cx.line.number);
             }
         }
-        Ok(())
+        Ok((after, direction))
     }
 
     /// Count a compensated block (or inserted piece) and record what the model predicts
     /// for it, at the axis values the controller is now told (`State::emitted`); the tip's
-    /// distance there from the target (mm).
+    /// distance (mm) and direction angle (rad) there from the target.
     pub(super) fn record(
         &self,
         line: usize,
         sol: &Solution,
         state: &State,
         summary: &mut Summary,
-    ) -> f64 {
+    ) -> (f64, f64) {
         let n = self.kin.len();
         let (after, beyond) = self.kin.pose_near(
             Model::Actual,
@@ -549,6 +563,6 @@ impl Pass<'_> {
             summary.plane_blocks += 1;
             summary.plane_direction.update(ad, line);
         }
-        ap
+        (ap, ad)
     }
 }

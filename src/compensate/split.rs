@@ -10,8 +10,8 @@
 
 use super::pipeline::{Cx, Out};
 use super::{Pass, State};
-use crate::kinematics::MAX_AXES;
-use crate::kinematics::path::Piece;
+use crate::kinematics::path::{PathTolerance, Piece};
+use crate::kinematics::{MAX_AXES, Solution};
 use crate::nc::edit::Editor;
 use crate::nc::number::write_fixed;
 use crate::nc::{TokenKind, Value};
@@ -22,12 +22,12 @@ impl Pass<'_> {
     /// Split the current G1 move if its path needs it: push an edit inserting the new
     /// blocks before the line (and, in G93, one giving the block its share of F), and
     /// advance `state` to the last inserted point. `previous`, `from`: the nominal values
-    /// before the block and the ones the machine was told; `end`: its compensated values.
+    /// before the block and the ones the machine was told; `end`: its solution.
     pub(super) fn split_move(
         &self,
         cx: &Cx<'_, '_>,
         (previous, from): (&[f64; MAX_AXES], &[f64; MAX_AXES]),
-        end: &[f64; MAX_AXES],
+        end: &Solution,
         hold: u32,
         state: &mut State,
         out: &mut Out<'_>,
@@ -35,6 +35,10 @@ impl Pass<'_> {
         let Some(tolerance) = &self.options.path else {
             return;
         };
+        if self.within_bound((previous, from), end, tolerance, state) {
+            return;
+        }
+        let end = &end.q;
         let n = self.kin.len();
         // The pass's list of pieces, taken while `state` changes below and given back.
         let mut pieces = std::mem::take(&mut state.pieces);
@@ -51,6 +55,49 @@ impl Pass<'_> {
             self.insert_pieces(cx, &pieces, state, out);
         }
         state.pieces = pieces;
+    }
+
+    /// Whether the move is proven within `tolerance` without a pose: its ends' deviations
+    /// (the start's from the block before, the end's the solve's residual) and the bound
+    /// on what it adds between them (`Kinematics::path_sag`). A move proven so is one the
+    /// sampled check would not split: the output is the same. The test mirrors the
+    /// sampled check's, its floor included (a start written coarser than the tolerance).
+    fn within_bound(
+        &self,
+        (previous, from): (&[f64; MAX_AXES], &[f64; MAX_AXES]),
+        end: &Solution,
+        tolerance: &PathTolerance,
+        state: &State,
+    ) -> bool {
+        let n = self.kin.len();
+        let length = state.modal.length;
+        let Some(start) = state.end.filter(|e| {
+            e.kin == self.kin_id()
+                && e.length.to_bits() == length.to_bits()
+                && bitwise_equal(&e.told[..n], &from[..n])
+                && bitwise_equal(&e.nominal[..n], &previous[..n])
+        }) else {
+            return false;
+        };
+        let Some(sag) = self.kin.path_sag(
+            (&previous[..n], &state.pos.nominal[..n]),
+            (&from[..n], &end.q[..n]),
+            length,
+        ) else {
+            return false;
+        };
+        // Evaluating a pose rounds at 10⁻¹³ mm; the bound is kept clear of that.
+        let slack = (1e-9, 1e-12);
+        let sag_position = sag.position + slack.0;
+        let position = start.position.max(end.position_residual) + sag_position;
+        // Directions: the end angles bound their chords; the chord found bounds its angle
+        // within 0.1 % below 0.1 rad.
+        let chord = start.direction.max(end.direction_residual) + sag.direction;
+        let direction = chord * 1.001 + slack.1;
+        chord < 0.1
+            && direction <= tolerance.direction
+            && (position <= tolerance.position
+                || (end.position_residual <= start.position && sag_position <= tolerance.position))
     }
 
     /// The blocks of a split move before the line (see [`Pass::split_move`]).
@@ -131,4 +178,11 @@ impl Pass<'_> {
         out.summary.note_split(line.number, pieces.len() - 1);
         editor.insert_blocks(text);
     }
+}
+
+/// Equal to the last bit (a key, not a measure: -0.0 and 0.0 differ, NaN is never equal).
+fn bitwise_equal(a: &[f64], b: &[f64]) -> bool {
+    a.iter()
+        .zip(b)
+        .all(|(x, y)| x.to_bits() == y.to_bits() && !x.is_nan())
 }

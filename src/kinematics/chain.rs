@@ -249,13 +249,13 @@ pub(super) struct Joint {
     /// Linear: error reference point r. Rotary: axis point c̃.
     pub point: Vector3<f64>,
     /// Rotary: sine and cosine of the zero-position error e0, and whether it is zero.
-    zero: (f64, f64),
+    pub zero: (f64, f64),
     has_zero: bool,
     /// Rotary: [ã]× and [ã]×², for Rodrigues' formula.
     k: M3,
     k2: M3,
-    motion: Option<MotionTable>,
-    table_offset: f64,
+    pub motion: Option<MotionTable>,
+    pub table_offset: f64,
     /// Linear: added to the variable's value (a work offset other than the one the
     /// machine file's geometry is given in moves program zero along the axis).
     pub shift: f64,

@@ -6,12 +6,14 @@
 //! Nothing else in nccomp evaluates a machine: compensation, checks and analysis tools
 //! all come through [`Kinematics`].
 
+mod bound;
 mod chain;
 pub mod path;
 mod solve;
 pub mod tcp;
 mod turning;
 
+pub use bound::Sag;
 pub use chain::Angles;
 pub use solve::{Solution, SolveOptions};
 
@@ -108,6 +110,8 @@ pub struct Kinematics {
     reference_tool: f64,
     /// Set: poses are turning poses (see [`Kinematics::turning`]).
     turning: Option<turning::Turning>,
+    /// The error model's size, for [`Kinematics::path_sag`].
+    bound: bound::PathBound,
 }
 
 /// Problems setting up kinematics.
@@ -177,14 +181,20 @@ impl Kinematics {
             .enumerate()
             .filter(|(_, k)| **k == AxisKind::Rotary)
             .fold(0, |m, (v, _)| m | 1 << v);
+        let (nominal, actual) = (build(&zero), build(errors));
+        let bound = bound::PathBound::new(
+            actual.workpiece.iter().chain(&actual.tool),
+            nominal.workpiece.iter().chain(&nominal.tool),
+        );
         Ok(Kinematics {
             kinds,
             rotary,
-            nominal: build(&zero),
-            actual: build(errors),
+            nominal,
+            actual,
             axes,
             reference_tool: machine.tool.length,
             turning: None,
+            bound,
         })
     }
 
@@ -199,6 +209,7 @@ impl Kinematics {
                 }
             }
         }
+        kin.bound = self.bound.shifted(shift);
         kin
     }
 

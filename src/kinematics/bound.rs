@@ -1,0 +1,285 @@
+//! A bound on how far a compensated move can stray from its nominal move between its ends,
+//! from the move's size and the error model's size alone: no pose.
+//!
+//! The deviation along a move is f(s) = p_real(c(s)) − p_nom(q(s)), s ∈ [0, 1], with q and
+//! c the nominal and compensated axis values interpolated linearly. Where f is twice
+//! differentiable with |f''| ≤ M on [0, 1], f stays within M/8 of the chord between f(0)
+//! and f(1), so |f(s)| ≤ max(|f(0)|, |f(1)|) + M/8. f is smooth on the move when no error
+//! table has a breakpoint (or an end) within the range of values its axis takes; otherwise
+//! no bound is given and the move is sampled.
+//!
+//! M comes from the homotopy F(s, λ) = p_λ(q(s) + λ·Δ(s)), where p_λ is the machine with
+//! every error scaled by λ and Δ = c − q (linear in s): f = F(·, 1) − F(·, 0), so
+//! |f''| ≤ sup |∂²ₛ ∂_λ F|, and ∂_λ F = Dp_λ·Δ + (the first-order effect of the errors).
+//! Every term is then a derivative of a chain of rigid motions along a line of axis values,
+//! and such a chain obeys, for directions a, b with rotary rates Ω (rad, table slopes of
+//! angle included) and linear rates V (mm, table slopes of length included), and ρ a
+//! bound on the tip's distance from every rotation centre in every frame:
+//! |D²p[a, b]| ≤ Ω_aΩ_bρ + Ω_aV_b + Ω_bV_a and |D³p[a, a, b]| ≤ Ω_a²(Ω_bρ + V_b) +
+//! 2Ω_aΩ_bV_a (each derivative of a rotation factor is its rate times a map of norm ≤ 1;
+//! a translation factor has no second derivative). The errors' first-order effect, a sum
+//! of small twists (angles A, lengths D, their rates A', D' along the move) carried by the
+//! chain, adds A(4Ω²ρ + 4ΩV) + DΩ² + A'(4Ωρ + 2V) + 2ΩD'. The tool direction, a free
+//! vector, obeys the same with ρ = 1 and no lengths. What is of second order in the errors
+//! (a rotation's exponential against its first order, axes tilted by microradians) is
+//! covered by a 10 % margin. `tests/path_bound.rs` holds the bound against the deviation
+//! sampled densely on every fixture machine with random error models.
+
+use super::chain::Joint;
+use super::{Kinematics, angle_between};
+use crate::model::AxisKind;
+
+/// What the bound needs of one joint of the real machine.
+#[derive(Debug, Clone)]
+struct JointBound {
+    var: usize,
+    rotary: bool,
+    /// Largest slope of the error table's angles (rad) and lengths (mm), per mm of a
+    /// linear axis or per radian of a rotary one.
+    slope_angle: f64,
+    slope_length: f64,
+    /// Linear: the angle between the direction with squareness and without.
+    squareness: f64,
+    /// The table's breakpoints (table positions) and whether it repeats every 360°.
+    breaks: Option<(Vec<f64>, bool)>,
+    table_offset: f64,
+    shift: f64,
+}
+
+/// The error model's size as the bound uses it (see the module's documentation).
+#[derive(Debug, Clone)]
+pub(super) struct PathBound {
+    joints: Vec<JointBound>,
+    /// A and D: the errors' angles (rad) and lengths (mm) summed over the machine.
+    angles: f64,
+    lengths: f64,
+    /// ρ without the tip and the linear axes' values: what the rotary joints, the tables
+    /// and the reference points add to any point's distance from a rotation centre.
+    reach: f64,
+}
+
+/// Largest norm of a table's angles and lengths, and of their slopes per unit of the
+/// table's position.
+fn table_sizes(joint: &Joint) -> (f64, f64, f64, f64) {
+    let Some(table) = &joint.motion else {
+        return (0.0, 0.0, 0.0, 0.0);
+    };
+    let p = &table.positions;
+    let value = |c: usize, i: usize| table.values[c].as_ref().map_or(0.0, |v| v[i]);
+    let norm = |i: usize, from: usize| {
+        (0..3)
+            .map(|c| value(from + c, i).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let (mut length, mut angle) = (0.0f64, 0.0f64);
+    for i in 0..p.len() {
+        length = length.max(norm(i, 0));
+        angle = angle.max(norm(i, 3));
+    }
+    let mut segments: Vec<(usize, usize, f64)> =
+        (1..p.len()).map(|j| (j - 1, j, p[j] - p[j - 1])).collect();
+    if table.periodic && p.len() > 1 {
+        segments.push((p.len() - 1, 0, p[0] + 360.0 - p[p.len() - 1]));
+    }
+    let (mut slope_length, mut slope_angle) = (0.0f64, 0.0f64);
+    for (i, j, span) in segments {
+        if span <= 0.0 {
+            continue;
+        }
+        let slope = |from: usize| {
+            (0..3)
+                .map(|c| ((value(from + c, j) - value(from + c, i)) / span).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        slope_length = slope_length.max(slope(0));
+        slope_angle = slope_angle.max(slope(3));
+    }
+    (length, angle, slope_length, slope_angle)
+}
+
+impl PathBound {
+    /// The bound's constants for the real chains `actual` against the nominal `nominal`
+    /// (the same joints in the same order).
+    pub(super) fn new<'a>(
+        actual: impl Iterator<Item = &'a Joint>,
+        nominal: impl Iterator<Item = &'a Joint>,
+    ) -> PathBound {
+        let per_radian = 180.0 / std::f64::consts::PI;
+        let mut bound = PathBound {
+            joints: Vec::new(),
+            angles: 0.0,
+            lengths: 0.0,
+            reach: 0.0,
+        };
+        let mut farthest_point = 0.0f64;
+        for (real, nom) in actual.zip(nominal) {
+            let rotary = real.kind == AxisKind::Rotary;
+            let (length, angle, mut slope_length, mut slope_angle) = table_sizes(real);
+            if rotary {
+                slope_length *= per_radian;
+                slope_angle *= per_radian;
+            }
+            bound.angles += angle;
+            bound.lengths += length;
+            let tilt = angle_between(&real.dir, &nom.dir);
+            farthest_point = farthest_point.max(real.point.norm()).max(nom.point.norm());
+            if rotary {
+                // Rot(ã, θ) = Q·Rot(a, θ)·Qᵀ: two twists of the tilt; a shifted centre, two
+                // translations; the zero error, a turn about the axis.
+                let (s0, c0) = real.zero;
+                bound.angles += 2.0 * tilt + s0.atan2(c0).abs();
+                bound.lengths += 2.0 * (real.point - nom.point).norm();
+                bound.reach += 2.0 * real.point.norm().max(nom.point.norm()) + length;
+            } else {
+                bound.reach += length + angle * real.point.norm();
+            }
+            bound.joints.push(JointBound {
+                var: real.var,
+                rotary,
+                slope_angle,
+                slope_length,
+                squareness: if rotary { 0.0 } else { tilt },
+                breaks: real
+                    .motion
+                    .as_ref()
+                    .map(|t| (t.positions.clone(), t.periodic)),
+                table_offset: real.table_offset,
+                shift: real.shift,
+            });
+        }
+        bound.reach += farthest_point;
+        bound
+    }
+
+    /// The same constants for kinematics whose linear joints are shifted by `shift`.
+    pub(super) fn shifted(&self, shift: &[f64]) -> PathBound {
+        let mut bound = self.clone();
+        for j in bound.joints.iter_mut().filter(|j| !j.rotary) {
+            j.shift = shift.get(j.var).copied().unwrap_or(0.0);
+        }
+        bound
+    }
+}
+
+/// Whether the error table of positions `breaks` is affine over [lo, hi] (table
+/// positions): no breakpoint, and no end of a table that is held beyond its ends, inside.
+fn affine_over((breaks, periodic): &(Vec<f64>, bool), lo: f64, hi: f64) -> bool {
+    let Some(&first) = breaks.first() else {
+        return true;
+    };
+    if !*periodic {
+        return breaks.partition_point(|&b| b <= lo) == breaks.partition_point(|&b| b <= hi);
+    }
+    if breaks.len() == 1 {
+        return true;
+    }
+    if hi - lo >= 360.0 {
+        return false;
+    }
+    let l = first + (lo - first).rem_euclid(360.0);
+    let h = l + (hi - lo);
+    // The segment index over two turns of the table.
+    let index = |x: f64| {
+        if x < first + 360.0 {
+            breaks.partition_point(|&b| b <= x)
+        } else {
+            breaks.len() + breaks.partition_point(|&b| b + 360.0 <= x)
+        }
+    };
+    index(l) == index(h)
+}
+
+/// The sags a move can add to its end deviations: position (mm) and tool direction (the
+/// chord between directions; an angle below 0.1 rad exceeds its chord by under 0.1 %).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sag {
+    pub position: f64,
+    pub direction: f64,
+}
+
+impl Kinematics {
+    /// A bound on how much further than its ends the move from nominal `qa` → `qb`,
+    /// executed as `ca` → `cb` on the real machine, can stray between them (see the
+    /// module's documentation); `None` where no bound is given (a table's breakpoint within
+    /// the move, turning kinematics).
+    pub fn path_sag(
+        &self,
+        (qa, qb): (&[f64], &[f64]),
+        (ca, cb): (&[f64], &[f64]),
+        length: f64,
+    ) -> Option<Sag> {
+        if self.turning.is_some() {
+            return None;
+        }
+        let bound = &self.bound;
+        let to_rad = std::f64::consts::PI / 180.0;
+        // Rates along the move of the compensated values (the largest of any λ), of the
+        // correction Δ and of its change w; Ω in radians, V in mm.
+        let (mut om_c, mut v_c, mut om_d, mut v_d, mut om_w, mut v_w) =
+            (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        // A', D' and the lengths that grow with a linear axis's value (squareness).
+        let (mut rate_angles, mut rate_lengths, mut square_lengths) = (0.0, 0.0, 0.0);
+        let mut reach = bound.reach + self.tip(length).norm();
+        for j in &bound.joints {
+            let k = j.var;
+            let scale = if j.rotary { to_rad } else { 1.0 };
+            let u = (qb[k] - qa[k]) * scale;
+            let (da, db) = ((ca[k] - qa[k]) * scale, (cb[k] - qb[k]) * scale);
+            let w = (db - da).abs();
+            let rate = u.abs() + w;
+            let delta = da.abs().max(db.abs());
+            // A joint's rates: its own motion and its table's slopes.
+            let (rot, lin) = if j.rotary {
+                (1.0 + j.slope_angle, j.slope_length)
+            } else {
+                (j.slope_angle, 1.0 + j.slope_length)
+            };
+            om_c += rate * rot;
+            v_c += rate * lin;
+            om_d += delta * rot;
+            v_d += delta * lin;
+            om_w += w * rot;
+            v_w += w * lin;
+            rate_angles += rate * j.slope_angle;
+            rate_lengths += rate * (j.slope_length + j.squareness);
+            let values = [qa[k], qb[k], ca[k], cb[k]];
+            if !j.rotary {
+                let far = values
+                    .iter()
+                    .map(|x| (x + j.shift).abs())
+                    .fold(0.0f64, f64::max);
+                reach += far;
+                square_lengths += far * j.squareness;
+            }
+            if let Some(breaks) = &j.breaks {
+                let at = |x: f64| x + j.shift + j.table_offset;
+                let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
+                let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                if !lo.is_finite() || !hi.is_finite() || !affine_over(breaks, at(lo), at(hi)) {
+                    return None;
+                }
+            }
+        }
+        let rho = reach;
+        let (a, d) = (bound.angles, bound.lengths + square_lengths);
+        let position = om_c * om_c * (om_d * rho + v_d)
+            + 2.0 * om_c * om_d * v_c
+            + 2.0 * (om_c * om_w * rho + om_c * v_w + om_w * v_c)
+            + a * (4.0 * om_c * om_c * rho + 4.0 * om_c * v_c)
+            + d * om_c * om_c
+            + rate_angles * (4.0 * om_c * rho + 2.0 * v_c)
+            + 2.0 * om_c * rate_lengths;
+        let direction = om_c * om_c * om_d
+            + 2.0 * om_c * om_w
+            + 4.0 * a * om_c * om_c
+            + 4.0 * rate_angles * om_c;
+        let margin = 1.1 / 8.0;
+        let sag = Sag {
+            position: position * margin,
+            direction: direction * margin,
+        };
+        (sag.position.is_finite() && sag.direction.is_finite()).then_some(sag)
+    }
+}
