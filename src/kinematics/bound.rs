@@ -27,7 +27,7 @@
 
 use super::chain::Joint;
 use super::{Kinematics, angle_between};
-use crate::model::AxisKind;
+use crate::model::{AxisKind, IndexedTable};
 
 /// What the bound needs of one joint of the real machine.
 #[derive(Debug, Clone)]
@@ -40,8 +40,8 @@ struct JointBound {
     slope_length: f64,
     /// Linear: the angle between the direction with squareness and without.
     squareness: f64,
-    /// The table's breakpoints (table positions) and whether it repeats every 360°.
-    breaks: Option<(Vec<f64>, bool)>,
+    /// The error table, to tell where it is affine.
+    table: Option<IndexedTable>,
     table_offset: f64,
     shift: f64,
 }
@@ -141,10 +141,7 @@ impl PathBound {
                 slope_angle,
                 slope_length,
                 squareness: if rotary { 0.0 } else { tilt },
-                breaks: real
-                    .motion
-                    .as_ref()
-                    .map(|t| (t.positions.clone(), t.periodic)),
+                table: real.motion.as_ref().map(IndexedTable::new),
                 table_offset: real.table_offset,
                 shift: real.shift,
             });
@@ -161,34 +158,6 @@ impl PathBound {
         }
         bound
     }
-}
-
-/// Whether the error table of positions `breaks` is affine over [lo, hi] (table
-/// positions): no breakpoint, and no end of a table that is held beyond its ends, inside.
-fn affine_over((breaks, periodic): &(Vec<f64>, bool), lo: f64, hi: f64) -> bool {
-    let Some(&first) = breaks.first() else {
-        return true;
-    };
-    if !*periodic {
-        return breaks.partition_point(|&b| b <= lo) == breaks.partition_point(|&b| b <= hi);
-    }
-    if breaks.len() == 1 {
-        return true;
-    }
-    if hi - lo >= 360.0 {
-        return false;
-    }
-    let l = first + (lo - first).rem_euclid(360.0);
-    let h = l + (hi - lo);
-    // The segment index over two turns of the table.
-    let index = |x: f64| {
-        if x < first + 360.0 {
-            breaks.partition_point(|&b| b <= x)
-        } else {
-            breaks.len() + breaks.partition_point(|&b| b + 360.0 <= x)
-        }
-    };
-    index(l) == index(h)
 }
 
 /// The sags a move can add to its end deviations: position (mm) and tool direction (the
@@ -253,11 +222,11 @@ impl Kinematics {
                 reach += far;
                 square_lengths += far * j.squareness;
             }
-            if let Some(breaks) = &j.breaks {
+            if let Some(table) = &j.table {
                 let at = |x: f64| x + j.shift + j.table_offset;
                 let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
                 let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-                if !lo.is_finite() || !hi.is_finite() || !affine_over(breaks, at(lo), at(hi)) {
+                if !table.affine_over(at(lo), at(hi)) {
                     return None;
                 }
             }

@@ -9,7 +9,7 @@
 //! motions (micro-radians) are rotated by their series.
 
 use super::MAX_AXES;
-use crate::model::{AxisKind, MotionTable};
+use crate::model::{AxisKind, IndexedTable, MotionTable};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use std::ops::{Add, Mul};
 
@@ -255,6 +255,8 @@ pub(super) struct Joint {
     k: M3,
     k2: M3,
     pub motion: Option<MotionTable>,
+    /// The same, ready for look-ups.
+    table: Option<IndexedTable>,
     pub table_offset: f64,
     /// Linear: added to the variable's value (a work offset other than the one the
     /// machine file's geometry is given in moves program zero along the axis).
@@ -281,6 +283,7 @@ impl Joint {
             has_zero: zero != 0.0,
             k,
             k2: k * k,
+            table: motion.as_ref().map(IndexedTable::new),
             motion,
             table_offset,
             shift: 0.0,
@@ -299,7 +302,7 @@ impl Joint {
     ) -> (Rigid, bool, Twist) {
         let q = q + self.shift;
         // E(q) = Tr(δ)·Rv(ε) about the joint's reference point.
-        let e = self.motion.as_ref().map(|m| {
+        let e = self.table.as_ref().map(|m| {
             let (s, slope) = m.sample_with_slope(q + self.table_offset);
             *beyond |= s.beyond;
             let v = s.values;

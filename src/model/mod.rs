@@ -105,7 +105,7 @@ pub(crate) fn read_text(path: &Path, what: &str) -> crate::Result<String> {
     })
 }
 
-pub use table::MotionTable;
+pub use table::{IndexedTable, MotionTable};
 
 /// Whether an axis slides or turns.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
