@@ -202,7 +202,7 @@ impl IndexedTable {
         if p.is_empty() || (self.periodic && p.len() == 1) {
             return true;
         }
-        if !(lo <= hi) {
+        if lo.is_nan() || hi.is_nan() || lo > hi {
             return false;
         }
         if !self.periodic {
