@@ -4,26 +4,30 @@
 //! The deviation along a move is f(s) = p_real(c(s)) − p_nom(q(s)), s ∈ [0, 1], with q and
 //! c the nominal and compensated axis values interpolated linearly. Where f is twice
 //! differentiable with |f''| ≤ M on [0, 1], f stays within M/8 of the chord between f(0)
-//! and f(1), so |f(s)| ≤ max(|f(0)|, |f(1)|) + M/8. f is smooth on the move when no error
-//! table has a breakpoint (or an end) within the range of values its axis takes; otherwise
-//! no bound is given and the move is sampled.
+//! and f(1); a kink where f' jumps by J adds at most J/4. So
+//! |f(s)| ≤ max(|f(0)|, |f(1)|) + M/8 + ΣJ/4.
 //!
-//! M comes from the homotopy F(s, λ) = p_λ(q(s) + λ·Δ(s)), where p_λ is the machine with
-//! every error scaled by λ and Δ = c − q (linear in s): f = F(·, 1) − F(·, 0), so
-//! |f''| ≤ sup |∂²ₛ ∂_λ F|, and ∂_λ F = Dp_λ·Δ + (the first-order effect of the errors).
-//! Every term is then a derivative of a chain of rigid motions along a line of axis values,
-//! and such a chain obeys, for directions a, b with rotary rates Ω (rad, table slopes of
-//! angle included) and linear rates V (mm, table slopes of length included), and ρ a
-//! bound on the tip's distance from every rotation centre in every frame:
-//! |D²p[a, b]| ≤ Ω_aΩ_bρ + Ω_aV_b + Ω_bV_a and |D³p[a, a, b]| ≤ Ω_a²(Ω_bρ + V_b) +
-//! 2Ω_aΩ_bV_a (each derivative of a rotation factor is its rate times a map of norm ≤ 1;
-//! a translation factor has no second derivative). The errors' first-order effect, a sum
-//! of small twists (angles A, lengths D, their rates A', D' along the move) carried by the
-//! chain, adds A(4Ω²ρ + 4ΩV) + DΩ² + A'(4Ωρ + 2V) + 2ΩD'. The tool direction, a free
-//! vector, obeys the same with ρ = 1 and no lengths. What is of second order in the errors
-//! (a rotation's exponential against its first order, axes tilted by microradians) is
-//! covered by a 10 % margin. `tests/path_bound.rs` holds the bound against the deviation
-//! sampled densely on every fixture machine with random error models.
+//! Write f = [p_nom(c) − p_nom(q)] + [p_real(c) − p_nom(c)]. The first is the nominal
+//! machine moved by the correction Δ = c − q (linear in s): through the segment from q to c
+//! it is ∫ Dp_nom(q + tΔ)·Δ dt, whose second derivative along s takes the third and second
+//! derivatives of the nominal chain. The second is the error field at the real axis values:
+//! scaling every error by μ from 0 to 1 at the same values c(s), it is the integral of the
+//! errors' first-order effect, a sum of small twists (angles A, lengths D, their rates A',
+//! D' along the move) carried by the chain. Both are derivatives of chains of rigid motions
+//! along a line of axis values, and such a chain obeys, for directions a, b with rotary
+//! rates Ω (rad, table slopes of angle included) and linear rates V (mm, table slopes of
+//! length included), and ρ a bound on the tip's distance from every rotation centre in
+//! every frame: |D²p[a, b]| ≤ Ω_aΩ_bρ + Ω_aV_b + Ω_bV_a and |D³p[a, a, b]| ≤
+//! Ω_a²(Ω_bρ + V_b) + 2Ω_aΩ_bV_a (each derivative of a rotation factor is its rate times a
+//! map of norm ≤ 1; a translation factor has no second derivative). The error field adds
+//! A(4Ω²ρ + 4ΩV) + DΩ² + A'(4Ωρ + 2V) + 2ΩD'. Tables are linear between their positions,
+//! so the error field is smooth except where an axis's real value crosses a position of its
+//! table: there its twist's rate jumps, by at most twice the table's largest slope times
+//! the axis's rate (times ρ for angles). The tool direction, a free vector, obeys the same
+//! with ρ = 1 and no lengths. What is of second order in the errors (a rotation's
+//! exponential against its first order, axes tilted by microradians) is covered by a 10 %
+//! margin. `tests/path_bound.rs` holds the bound against the deviation sampled densely on
+//! every fixture machine with random error models.
 
 use super::chain::Joint;
 use super::{Kinematics, angle_between};
@@ -171,8 +175,8 @@ pub struct Sag {
 impl Kinematics {
     /// A bound on how much further than its ends the move from nominal `qa` → `qb`,
     /// executed as `ca` → `cb` on the real machine, can stray between them (see the
-    /// module's documentation); `None` where no bound is given (a table's breakpoint within
-    /// the move, turning kinematics).
+    /// module's documentation); `None` where no bound is given (turning kinematics, a move
+    /// of a turn or more on a rotary axis with a table).
     pub fn path_sag(
         &self,
         (qa, qb): (&[f64], &[f64]),
@@ -190,6 +194,9 @@ impl Kinematics {
             (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
         // A', D' and the lengths that grow with a linear axis's value (squareness).
         let (mut rate_angles, mut rate_lengths, mut square_lengths) = (0.0, 0.0, 0.0);
+        // The jumps of the error field's rate where an axis crosses a table position: their
+        // rates in angle and in length, summed (ρ is known only after the loop).
+        let (mut kink_angles, mut kink_lengths) = (0.0, 0.0);
         let mut reach = bound.reach + self.tip(length).norm();
         for j in &bound.joints {
             let k = j.var;
@@ -223,12 +230,13 @@ impl Kinematics {
                 square_lengths += far * j.squareness;
             }
             if let Some(table) = &j.table {
+                // Only the real machine reads the tables, at the compensated values.
                 let at = |x: f64| x + j.shift + j.table_offset;
-                let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
-                let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-                if !table.affine_over(at(lo), at(hi)) {
-                    return None;
-                }
+                let (lo, hi) = (ca[k].min(cb[k]), ca[k].max(cb[k]));
+                let kinks = table.kinks_within(at(lo), at(hi))? as f64;
+                let real_rate = (cb[k] - ca[k]).abs() * scale;
+                kink_angles += kinks * 2.0 * j.slope_angle * real_rate;
+                kink_lengths += kinks * 2.0 * j.slope_length * real_rate;
             }
         }
         let rho = reach;
@@ -244,10 +252,10 @@ impl Kinematics {
             + 2.0 * om_c * om_w
             + 4.0 * a * om_c * om_c
             + 4.0 * rate_angles * om_c;
-        let margin = 1.1 / 8.0;
+        let margin = 1.1;
         let sag = Sag {
-            position: position * margin,
-            direction: direction * margin,
+            position: margin * (position / 8.0 + (kink_angles * rho + kink_lengths) / 4.0),
+            direction: margin * (direction / 8.0 + kink_angles / 4.0),
         };
         (sag.position.is_finite() && sag.direction.is_finite()).then_some(sag)
     }

@@ -195,21 +195,22 @@ impl IndexedTable {
         }
     }
 
-    /// Whether the table is affine over [lo, hi] (table positions): no position inside, and
-    /// for a table held beyond its ends, neither end. NaN is not.
-    pub fn affine_over(&self, lo: f64, hi: f64) -> bool {
+    /// How many of the table's positions lie in (lo, hi] (table positions): the kinks of
+    /// its values there, the ends of a table held beyond them included. `None` for a range
+    /// of a turn or more on a periodic table, or NaN.
+    pub fn kinks_within(&self, lo: f64, hi: f64) -> Option<usize> {
         let p = &self.positions;
-        if p.is_empty() || (self.periodic && p.len() == 1) {
-            return true;
-        }
         if lo.is_nan() || hi.is_nan() || lo > hi {
-            return false;
+            return None;
+        }
+        if p.is_empty() || (self.periodic && p.len() == 1) {
+            return Some(0);
         }
         if !self.periodic {
-            return self.piece(lo) == self.piece(hi);
+            return Some(self.piece(hi) - self.piece(lo));
         }
         if hi - lo >= 360.0 {
-            return false;
+            return None;
         }
         let first = p[0];
         let l = first + (lo - first).rem_euclid(360.0);
@@ -222,7 +223,7 @@ impl IndexedTable {
                 p.len() + self.piece(x - 360.0)
             }
         };
-        count(l) == count(h)
+        Some(count(h) - count(l))
     }
 
     /// [`MotionTable::sample_with_slope`], bitwise.
