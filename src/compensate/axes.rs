@@ -80,6 +80,10 @@ impl Mode for AxesMode {
         true
     }
 
+    fn targets_nominal_pose(&self) -> bool {
+        true
+    }
+
     fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic> {
         let (pass, cx, state, out) = b.parts();
         // Split the move where its path strays (G1 from a known start).

@@ -172,8 +172,9 @@ pub(super) fn run<M: Mode>(mode: &mut M, b: &mut Block) -> Result<(), Diagnostic
     mode.path(b, end, hold | at_limit)?;
     mode.write(b, end)?;
     let (position, direction) = pass.finish(b.cx, end, at_limit, b.state, b.out)?;
-    // The end deviation is the next move's start, where the target is the nominal pose.
-    b.state.end = mode.direction().is_none().then_some(super::EndDeviation {
+    // The end deviation is the next move's start, where the target is the nominal pose at
+    // the axis values solved for.
+    b.state.end = mode.targets_nominal_pose().then_some(super::EndDeviation {
         kin: pass.kin_id(),
         told: b.state.emitted,
         nominal: target,
@@ -240,6 +241,13 @@ pub(super) trait Mode {
     /// from it (rotary axes held where an earlier block left them).
     fn direction(&self) -> Option<nalgebra::Vector3<f64>> {
         None
+    }
+
+    /// Whether the solve's target is exactly the nominal pose at the axis values the mode
+    /// gave (machine-axis moves), so that the block's end deviation can start the next
+    /// move's path check.
+    fn targets_nominal_pose(&self) -> bool {
+        false
     }
 }
 
