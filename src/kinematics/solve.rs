@@ -658,7 +658,9 @@ fn inverse3(a: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
     ];
     let det = a[0][0] * cof[0][0] + a[0][1] * cof[0][1] + a[0][2] * cof[0][2];
     let frobenius = a.iter().flatten().map(|x| x * x).sum::<f64>().sqrt();
-    if !(det.abs() > 1e-3 * frobenius.powi(3)) {
+    // Written so that NaN fails it too.
+    let regular = det.abs() > 1e-3 * frobenius.powi(3);
+    if !regular {
         return None;
     }
     // inverse = adjugate / det, the adjugate the cofactors transposed.
