@@ -8,10 +8,8 @@
 //! text.
 
 mod common;
-#[path = "../benches/common/random.rs"]
-mod random;
 
-use common::{Lcg, random_errors};
+use common::{Lcg, random, random_errors};
 use nalgebra::Vector3;
 use nccomp::compensate::{Compensator, Options};
 use nccomp::kinematics::path::PathTolerance;

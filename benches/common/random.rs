@@ -1,6 +1,7 @@
 //! The throughput benchmark's inputs (issue 26): a program of random five-axis finishing
 //! moves on the AC trunnion and a full random calibration of it. Both come from a fixed-seed
-//! generator, so every run, and `examples/gen_program.rs`, writes the same bytes.
+//! generator, so every run, and `examples/gen_program.rs`, writes the same bytes. The
+//! tests take their generator from here too (`tests/common`).
 
 use std::fmt::Write as _;
 use std::io::Write;
@@ -21,6 +22,12 @@ impl Lcg {
     /// Uniform in [-s, s].
     pub fn sym(&mut self, s: f64) -> f64 {
         (2.0 * self.next() - 1.0) * s
+    }
+
+    /// Each component uniform in [-s, s].
+    #[allow(dead_code)]
+    pub fn vec(&mut self, s: f64) -> nalgebra::Vector3<f64> {
+        nalgebra::Vector3::new(self.sym(s), self.sym(s), self.sym(s))
     }
 }
 

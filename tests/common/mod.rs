@@ -91,27 +91,11 @@ pub fn head_head(pivot: f64) -> Machine {
     }
 }
 
-/// A small deterministic random generator (tests must not depend on a crate's stream).
-pub struct Lcg(pub u64);
-
-impl Lcg {
-    pub fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 11) as f64) / ((1u64 << 53) as f64)
-    }
-
-    /// Uniform in [-s, s].
-    pub fn sym(&mut self, s: f64) -> f64 {
-        (2.0 * self.next() - 1.0) * s
-    }
-
-    pub fn vec(&mut self, s: f64) -> Vector3<f64> {
-        Vector3::new(self.sym(s), self.sym(s), self.sym(s))
-    }
-}
+/// A small deterministic random generator (tests must not depend on a crate's stream): the
+/// benchmarks' own.
+#[path = "../../benches/common/random.rs"]
+pub mod random;
+pub use random::Lcg;
 
 /// Errors of the size the outside checker uses: straightness ~10 µm, angles ~100 µrad,
 /// location errors ~20 µm (in mm and rad).
