@@ -30,7 +30,7 @@ use crate::kinematics::path::{MOVE_PIECES, PathTolerance};
 use crate::kinematics::{MAX_AXES, Model, Pose, Solution, SolveOptions, angle_between};
 use crate::model::AxisKind;
 use crate::nc::edit::Editor;
-use crate::nc::number::{decimals_for, same_text, write_fixed, write_fixed_value};
+use crate::nc::number::{decimals_for, same_text, write_fixed};
 use crate::program::arc::{centre_words, circle, plane_letters};
 use crate::program::exact::{Position, Unit};
 use crate::program::{WorkingPlane, gcode, heidenhain};
@@ -441,8 +441,7 @@ impl Mode for TcpMode {
 
 /// `x` as written with `d` decimals.
 pub(super) fn round(x: f64, d: u8) -> f64 {
-    let mut text = String::new();
-    write_fixed_value(x, d, &mut text)
+    crate::nc::number::Rounded::new(x, d).read_back()
 }
 
 impl TcpMode {

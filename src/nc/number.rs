@@ -240,6 +240,15 @@ impl Rounded {
         crate::nc::to_f64(&out.as_bytes()[start..])
     }
 
+    /// The value the text [`Rounded::write`] writes reads as, without the text where it
+    /// is exact (no buffer to allocate).
+    pub fn read_back(&self) -> f64 {
+        if let Some((_, value)) = self.exact() {
+            return value;
+        }
+        self.write(&mut String::new())
+    }
+
     /// [`Rounded::write`] appending bytes.
     pub fn write_bytes(&self, out: &mut Vec<u8>) -> f64 {
         if let Some((n, value)) = self.exact() {
