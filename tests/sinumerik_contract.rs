@@ -18,180 +18,24 @@
 //! the programmed point there (the `MCALL CYCLE81` copies move RFP, and an absolute DP
 //! with it).
 
+mod common;
+
+use common::contract::*;
 use nalgebra::{Rotation3, Vector3};
-use nccomp::compensate::{Compensator, Options, Summary};
-use nccomp::kinematics::path::PathTolerance;
+use nccomp::compensate::{Compensator, Summary};
 use nccomp::kinematics::{Kinematics, Model, angle_between};
-use nccomp::model::{ErrorModel, Machine, error_file, machine_file};
+use nccomp::model::ErrorModel;
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
 
-/// Block ends in a plane or under TRAORI: the tip words are rounded to 0.1 µm, so the tip
-/// is off by up to half of it on each axis (0.087 µm), and the control computes the linear
-/// axes from the written words exactly.
-const END: f64 = 1.0e-4;
-/// Block ends in machine axes: the rotary words are rounded too, to 0.0001° (1.75 µrad),
-/// which moves the tip by up to 0.17 µm at the 100 mm between A's line and the part
-/// surface, and the linear words take that up only to their own rounding.
-const END_AXES: f64 = 2.5e-4;
-/// The tool direction at a block end where the rotary words are written (machine axes,
-/// TRAORI): two rotary words rounded to 0.0001° turn it by up to 1.2 µrad.
-const END_DIRECTION: f64 = 2.0e-6;
-/// A written block is the programmed block's own line when its real tip lands this close
-/// to the programmed end (the pieces inserted before it end inside the move).
-const MATCH: f64 = 5.0e-4;
-/// Samples along each written piece of a move.
-const SAMPLES: usize = 32;
-/// Below this tilt (degrees) the tool lies (nearly) along C, which cannot turn it: nccomp
-/// holds C there (its singular cone, `SolveOptions::singular_angle`, 3°), and the
-/// direction is not checked.
-const SINGULAR_TILT: f64 = 3.0;
-
-fn rx(deg: f64) -> Rotation3<f64> {
-    Rotation3::from_axis_angle(&Vector3::x_axis(), deg.to_radians())
-}
-
-fn ry(deg: f64) -> Rotation3<f64> {
-    Rotation3::from_axis_angle(&Vector3::y_axis(), deg.to_radians())
-}
-
-fn rz(deg: f64) -> Rotation3<f64> {
-    Rotation3::from_axis_angle(&Vector3::z_axis(), deg.to_radians())
-}
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).to_path_buf()
-}
-
-fn fixture(name: &str) -> String {
-    std::fs::read_to_string(root().join("fixtures").join(name)).unwrap()
-}
-
-/// `x` and `y` are the same angle (modulo a turn) within `tol` degrees.
-fn same_angle(x: f64, y: f64, tol: f64) -> bool {
-    let d = (x - y) / 360.0;
-    (d - d.round()).abs() * 360.0 <= tol
-}
-
-/// The options `nccomp compensate` runs with by default (src/cli/compensate.rs:
-/// `--tolerance 0.001`, `--angular-tolerance 10`).
-fn cli_options() -> Options {
-    Options {
-        path: Some(PathTolerance {
-            position: 0.001,
-            direction: 10e-6,
-            ..PathTolerance::default()
-        }),
-        ..Options::default()
-    }
-}
-
-// ---------------------------------------------------------------------------------------
-// The machine in closed form.
-
-/// Axis values [X, Y, Z, A, C].
-type Axes = [f64; 5];
-
-/// The AC trunnion (fixtures/ac_trunnion.machine.toml): the table moves in X, Y
-/// (directions -X, -Y), A turns the part about -X through (0, 0, a_z), C about -Z through
-/// the origin; the spindle moves in Z.
-struct Setup {
-    a_z: f64,
-    machine: Machine,
-    errors: ErrorModel,
-    tilt_travel: Option<[f64; 2]>,
-}
-
-impl Setup {
-    fn load() -> Setup {
-        let dir = root().join("fixtures");
-        let machine = machine_file::load(&dir.join("ac_trunnion.machine.toml")).unwrap();
-        let errors = error_file::load(&dir.join("ac_trunnion.errors.toml"), &machine).unwrap();
-        let axis = |n: &str| machine.axes.iter().find(|a| a.name == n).unwrap();
-        assert!(
-            axis("C").travel.is_none(),
-            "the closed form's C turns without end"
-        );
-        let chain: Vec<&str> = machine
-            .workpiece_chain
-            .iter()
-            .map(|&i| machine.axes[i].name.as_str())
-            .collect();
-        assert_eq!(chain, ["Y", "X", "A", "C"], "A is the axis nearest the bed");
-        let a_z = axis("A").point.z;
-        let tilt_travel = axis("A").travel;
-        Setup {
-            a_z,
-            machine,
-            errors,
-            tilt_travel,
-        }
-    }
-
-    /// The tool length beyond the machine file's reference tool.
-    fn offset(&self, length: f64) -> f64 {
-        length - self.machine.tool.length
-    }
-
-    /// The tool direction in the part frame at A `t` and C `c`.
-    fn direction(&self, t: f64, c: f64) -> Vector3<f64> {
-        rz(c) * rx(t) * Vector3::z()
-    }
-
-    /// The nominal tip and tool direction in the part frame at `q`.
-    fn forward(&self, q: Axes, length: f64) -> (Vector3<f64>, Vector3<f64>) {
-        let l = self.offset(length);
-        let a = Vector3::new(0.0, 0.0, self.a_z);
-        let w = Vector3::new(q[0], q[1], q[2] - l);
-        (
-            rz(q[4]) * (a + rx(q[3]) * (w - a)),
-            self.direction(q[3], q[4]),
-        )
-    }
-
-    /// The control's linear axes for a part-frame tip with the rotary axes at `t`, `c`.
-    fn linear_axes(&self, tip: Vector3<f64>, t: f64, c: f64, length: f64) -> Axes {
-        let l = self.offset(length);
-        let a = Vector3::new(0.0, 0.0, self.a_z);
-        let w = a + rx(-t) * (rz(-c) * tip - a);
-        [w.x, w.y, w.z + l, t, c]
-    }
-
-    /// The variables of nccomp's kinematics in its order.
-    fn vars(&self, kin: &Kinematics, q: Axes) -> Vec<f64> {
-        kin.axes()
-            .iter()
-            .map(|&i| match self.machine.axes[i].name.as_str() {
-                "X" => q[0],
-                "Y" => q[1],
-                "Z" => q[2],
-                "A" => q[3],
-                "C" => q[4],
-                other => panic!("axis {other}"),
-            })
-            .collect()
-    }
-
-    /// The rotary values at which the tool points along the plane's normal `n`, by _DIR:
-    /// of the two solutions, the one with the reference axis at or above 0 (+1) or at or
-    /// below (-1). The reference (master) axis is A, the table's axis nearest the bed
-    /// (workpiece chain Y, X, A, C). C turns without end: the nearest turn to `from`.
-    fn plane_rotaries(&self, n: Vector3<f64>, from: f64, positive: bool) -> [f64; 2] {
-        let t = n.z.clamp(-1.0, 1.0).acos().to_degrees();
-        assert!(t > 1e-6, "a plane along C is not in these fixtures");
-        // The direction is (sin t sin c, -sin t cos c, cos t).
-        let c_plus = n.x.atan2(-n.y).to_degrees();
-        let (t, c) = if positive {
-            (t, c_plus)
-        } else {
-            (-t, c_plus + 180.0)
-        };
-        let c = c + 360.0 * ((from - c) / 360.0).round();
-        if let Some([lo, hi]) = self.tilt_travel {
-            assert!((lo..=hi).contains(&t), "A{t} is outside its travel");
-        }
-        [t, c]
-    }
+/// The AC trunnion of the fixtures in closed form (`common::contract`), whose master axis
+/// for _DIR is A, the table's axis nearest the bed.
+fn ac_trunnion() -> Setup {
+    let setup = Setup::load("ac_trunnion", "ac_trunnion");
+    let chain: Vec<&str> = (setup.machine.workpiece_chain.iter())
+        .map(|&i| setup.machine.axes[i].name.as_str())
+        .collect();
+    assert_eq!(chain, ["Y", "X", "A", "C"], "A is the axis nearest the bed");
+    setup
 }
 
 // ---------------------------------------------------------------------------------------
@@ -1463,7 +1307,7 @@ fn compensate(setup: &Setup, program: &str, name: &str) -> (String, Summary) {
 /// One fixture through nccomp and the independent evaluation; the rotary positions of
 /// its CYCLE800 planes (the control's, closed form here).
 fn check_fixture(program: &str) -> Vec<(usize, [f64; 2])> {
-    let setup = Setup::load();
+    let setup = ac_trunnion();
     let src = fixture(program);
     let (written, summary) = compensate(&setup, &src, program);
     assert_numbers_rise(program, &written);
@@ -1610,7 +1454,7 @@ fn a_program_with_variables_meets_the_contract() {
 #[test]
 fn with_the_zero_model_each_fixture_comes_back_byte_for_byte() {
     for program in FIXTURES {
-        let mut setup = Setup::load();
+        let mut setup = ac_trunnion();
         setup.errors = ErrorModel::zero(&setup.machine);
         let src = fixture(program);
         let (out, summary) = compensate(&setup, &src, program);
@@ -1623,7 +1467,7 @@ fn with_the_zero_model_each_fixture_comes_back_byte_for_byte() {
 /// wrappers, arcs.
 #[test]
 fn the_interpreter_reads_the_fixtures_words() {
-    let setup = Setup::load();
+    let setup = ac_trunnion();
     let steps = |name: &str| -> Vec<(usize, Step)> {
         run(&setup, &fixture(name))
             .iter()
@@ -1675,7 +1519,7 @@ fn the_interpreter_reads_the_fixtures_words() {
 
 #[test]
 fn the_closed_forms_are_the_machines_nominal_kinematics() {
-    let setup = Setup::load();
+    let setup = ac_trunnion();
     let kin = Kinematics::new(&setup.machine, &ErrorModel::zero(&setup.machine), 0).unwrap();
     let mut state = 11u64;
     let mut rnd = |s: f64| {

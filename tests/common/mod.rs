@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod cli;
+pub mod contract;
 
 use nalgebra::Vector3;
 use nccomp::model::{
