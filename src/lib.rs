@@ -32,6 +32,7 @@ pub mod nc;
 pub mod probe;
 pub mod program;
 pub mod report;
+pub mod verify;
 pub mod workpiece;
 
 pub use diag::{Diagnostic, Error, Result};

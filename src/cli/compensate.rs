@@ -133,23 +133,53 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
     // The program streams through in bounded memory, to a temporary file that takes the
     // output's place only when every block has been compensated (to standard output, an
     // unnamed one copied out at the end: a failed run writes nothing there either).
-    let (input, name): (Box<dyn Read>, String) = if is_std(&args.input) {
+    // The gate reads the original again after the pass: standard input is kept.
+    let verify = options_verify(&comp);
+    let (input, name, kept): (Box<dyn Read>, String, Option<Vec<u8>>) = if is_std(&args.input) {
         use std::io::IsTerminal;
         if std::io::stdin().is_terminal() {
             eprint(
                 "nccomp: reading the program from standard input (end with Ctrl-D; see --help)\n",
             )?;
         }
-        (Box::new(std::io::stdin().lock()), "<stdin>".to_string())
+        if verify {
+            let mut src = Vec::new();
+            std::io::stdin()
+                .lock()
+                .read_to_end(&mut src)
+                .map_err(|e| crate::Error::io(Path::new("<stdin>"), e))?;
+            (Box::new(std::io::empty()), "<stdin>".to_string(), Some(src))
+        } else {
+            (
+                Box::new(std::io::stdin().lock()),
+                "<stdin>".to_string(),
+                None,
+            )
+        }
     } else {
         let file = std::fs::File::open(input).map_err(|e| crate::Error::io(input, e))?;
-        (Box::new(file), input.display().to_string())
+        (Box::new(file), input.display().to_string(), None)
+    };
+    let input: Box<dyn Read + '_> = match &kept {
+        Some(src) => Box::new(&src[..]),
+        None => input,
+    };
+    // The original's text for the gate.
+    let original = |kept: &Option<Vec<u8>>| -> crate::Result<Vec<u8>> {
+        match kept {
+            Some(src) => Ok(src.clone()),
+            None => std::fs::read(args.input.as_deref().unwrap_or(Path::new("-")))
+                .map_err(|e| crate::Error::io(args.input.as_deref().unwrap_or(Path::new("-")), e)),
+        }
     };
     let mut status = Status::Clean;
     let summary = match (&args.expected, output) {
         (Some(expected), _) => {
             let mut out = Vec::new();
-            let summary = comp.run_stream(input, &name, &mut out, "<memory>")?;
+            let mut summary = comp.run_stream(input, &name, &mut out, "<memory>")?;
+            if verify && !summary.zero_model {
+                summary.verdict = Some(gate(&comp, &name, &original(&kept)?, &name, &out)?);
+            }
             let (committed, expected_name) = read_file(expected)?;
             if let Some(diff) = crate::check::stale::compare(&expected_name, &committed, &out) {
                 print(&format!(
@@ -162,7 +192,24 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
         (None, Some(output)) => {
             let mut staged = output.stage()?;
             let output_name = staged.name();
-            let summary = comp.run_stream(input, &name, staged.file(), &output_name)?;
+            let mut summary = comp.run_stream(input, &name, staged.file(), &output_name)?;
+            if verify && !summary.zero_model {
+                // Read back what was written, as it lies in the file to be kept.
+                use std::io::{Seek, SeekFrom};
+                let file = staged.file();
+                let mut written = Vec::new();
+                file.seek(SeekFrom::Start(0))
+                    .and_then(|_| file.read_to_end(&mut written))
+                    .and_then(|_| file.seek(SeekFrom::End(0)))
+                    .map_err(|e| crate::Error::io(Path::new(&output_name), e))?;
+                summary.verdict = Some(gate(
+                    &comp,
+                    &name,
+                    &original(&kept)?,
+                    &output_name,
+                    &written,
+                )?);
+            }
             commit(vec![staged])?;
             summary
         }
@@ -176,6 +223,38 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
         eprint(&format!("{name}: {summary}\n"))?;
     }
     Ok(status)
+}
+
+fn options_verify(comp: &Compensator<'_>) -> bool {
+    comp.verifies()
+}
+
+/// The verification gate on a written program: its verdict, or the findings as refusals
+/// (exit 2; nothing is kept).
+fn gate(
+    comp: &Compensator<'_>,
+    name: &str,
+    original: &[u8],
+    written_name: &str,
+    written: &[u8],
+) -> crate::Result<crate::verify::Verdict> {
+    let dialect = comp.dialect_of(name, original);
+    let verdict = comp.verify(
+        crate::verify::Text {
+            name,
+            src: original,
+        },
+        crate::verify::Text {
+            name: written_name,
+            src: written,
+        },
+        dialect,
+    )?;
+    if verdict.passed() {
+        Ok(verdict)
+    } else {
+        Err(crate::Error::Inputs(verdict.findings))
+    }
 }
 
 impl PassArgs {

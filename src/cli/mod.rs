@@ -10,6 +10,7 @@ mod files;
 mod identify;
 mod probe;
 mod report;
+mod verify;
 
 use crate::check::Status;
 use crate::diag::{panic_message, use_color};
@@ -24,6 +25,7 @@ use identify::{IdentifyArgs, SimulateCutArgs};
 use probe::ProbeArgs;
 use report::ReportArgs;
 use std::process::ExitCode;
+use verify::VerifyArgs;
 
 /// Exit code for bad input or files (0 is success).
 const EXIT_BAD_INPUT: u8 = 2;
@@ -70,6 +72,17 @@ Exit status: 0 when every program is clean, 1 when any has findings, 2 when an i
 unusable (an option, the machine or error file, or a program that cannot be read)."
     )]
     Check(CheckArgs),
+    #[command(
+        after_help = "Example:\n  nccomp verify --machine fixtures/ac_trunnion.machine.toml \\\n      --errors fixtures/ac_trunnion.errors.toml part.nc part.comp.nc\n\n\
+Reads the compensated program as the control reads it (in each block-delete state the \
+original can run in), takes the real machine along the control's interpolation of its \
+words and holds it against the nominal path of the original, at block ends and between \
+them (--tolerance, --angular-tolerance). The compensated program may come from any tool. \
+See docs/ci.md.\n\n\
+Exit status: 0 when the compensated program puts the tool on the original's nominal path, \
+1 with located findings when it does not, 2 when an input is unusable."
+    )]
+    Verify(VerifyArgs),
     /// Parameter study and key errors: how much each error term moves the tool tip, and
     /// which terms matter most for the error in one direction (paper 002).
     #[command(
@@ -194,6 +207,7 @@ fn dispatch(cli: Cli) -> crate::Result<Status> {
     match cli.command {
         Command::Compensate(args) => compensate::compensate(&args),
         Command::Check(args) => check::check(&args),
+        Command::Verify(args) => verify::verify(&args),
         Command::Sensitivity(args) => budget::sensitivity(&args).map(|()| Status::Clean),
         Command::Tolerance(args) => budget::tolerance(&args).map(|()| Status::Clean),
         Command::Probe(args) => probe::probe(&args).map(|()| Status::Clean),

@@ -62,6 +62,10 @@ pub struct Options {
     /// The language of the programs; `None`: each program's own, from its text
     /// ([`crate::nc::Dialect::detect`]).
     pub dialect: Option<crate::nc::Dialect>,
+    /// Read every output back as the control reads it and hold it against the original
+    /// ([`crate::verify`]) before it is kept: [`Compensator::run`] refuses a program that
+    /// fails. Off only to measure what the gate costs.
+    pub verify: bool,
 }
 
 impl Default for Options {
@@ -76,6 +80,7 @@ impl Default for Options {
             path: None,
             threads: 1,
             dialect: None,
+            verify: true,
         }
     }
 }
@@ -369,14 +374,64 @@ impl<'m> Compensator<'m> {
             };
             return (summary, Vec::new());
         }
+        let start = out.len();
         let mut run = Run::new(self, trace);
-        run.program(self.dialect_of(path, src), src);
+        let dialect = self.dialect_of(path, src);
+        run.program(dialect, src);
         for line in nc::lines(src) {
             if !run.line(&line, path, out) {
                 break;
             }
         }
-        run.finish_all()
+        let (mut summary, mut refused) = run.finish_all();
+        if refused.is_empty() && self.passes[0].options.verify {
+            let written = crate::verify::Text {
+                name: path,
+                src: &out[start..],
+            };
+            match self.verify(crate::verify::Text { name: path, src }, written, dialect) {
+                Ok(verdict) if verdict.passed() => summary.verdict = Some(verdict),
+                Ok(verdict) => refused = verdict.findings,
+                Err(crate::Error::Input(d)) => refused = vec![*d],
+                Err(crate::Error::Inputs(ds)) => refused = ds,
+                Err(e) => {
+                    refused = vec![Diagnostic::at(
+                        path,
+                        src,
+                        0,
+                        format!("the verification gate cannot read this program: {e}"),
+                    )]
+                }
+            }
+        }
+        (summary, refused)
+    }
+
+    /// Whether outputs are verified ([`Options::verify`]).
+    pub fn verifies(&self) -> bool {
+        self.passes[0].options.verify
+    }
+
+    /// Hold `written` against `original` (read in `dialect`) with the verification gate,
+    /// with this compensator's machine, errors, tolerances and held axes.
+    pub fn verify(
+        &self,
+        original: crate::verify::Text<'_>,
+        written: crate::verify::Text<'_>,
+        dialect: nc::Dialect,
+    ) -> crate::Result<crate::verify::Verdict> {
+        let options = &self.passes[0].options;
+        let chains = self.passes[..self.machine.tool_chains.len()]
+            .iter()
+            .map(|p| p.kin.clone())
+            .collect();
+        let tolerances = crate::verify::Tolerances::new(
+            self.machine,
+            options.path.map(|t| (t.position, t.direction)),
+        );
+        let gate =
+            crate::verify::Gate::with_chains(self.machine, chains, tolerances, &options.hold);
+        gate.verify(original, written, dialect, self.start)
     }
 
     /// The dialect program `src` of file `name` is read in (`src`: the program, or its

@@ -101,6 +101,8 @@ pub struct Summary {
     pub arc_blocks_added: usize,
     /// Travel-limit violations written anyway (--allow-limit-violations).
     pub limit_violations: Vec<Diagnostic>,
+    /// What the verification gate found of the written program (`None`: not verified).
+    pub verdict: Option<crate::verify::Verdict>,
     /// Blocks that move but were written unchanged because an axis was at a position
     /// whose program coordinate is not known (after G28, G30 or G53), the first of them,
     /// and the axes that were unknown in them.
@@ -439,6 +441,9 @@ impl fmt::Display for Summary {
         }
         for v in &self.limit_violations {
             write!(f, "\nwarning: line {}: {}", v.line, v.message)?;
+        }
+        if let Some(verdict) = &self.verdict {
+            write!(f, "\n{verdict}")?;
         }
         Ok(())
     }

@@ -185,7 +185,7 @@ pub fn nominal_moves(
 /// not known.
 #[allow(clippy::too_many_arguments)]
 #[allow(clippy::type_complexity)]
-fn follow(
+pub(crate) fn follow(
     axes: &Axes,
     line: &nc::Line<'_>,
     tokens: &[Token],

@@ -1,0 +1,109 @@
+//! `nccomp verify`: the verification gate as a command, for CI: a compensated program on
+//! disk held against its original under today's calibration.
+
+use super::compensate::PassArgs;
+use super::files::{print, read_file};
+use crate::check::Status;
+use crate::compensate::Compensator;
+use crate::diag::{Severity, use_color};
+use crate::model::{error_file, machine_file};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub(super) struct VerifyArgs {
+    #[command(flatten)]
+    pass: PassArgs,
+    /// The program as the CAM postprocessor wrote it: the nominal path.
+    #[arg(value_name = "ORIGINAL")]
+    original: PathBuf,
+    /// The compensated program the control will run (nccomp's, another tool's, or
+    /// hand-edited).
+    #[arg(value_name = "COMPENSATED")]
+    compensated: PathBuf,
+    /// Output format: diagnostics for people, or JSON.
+    #[arg(long, value_enum, default_value = "human")]
+    format: VerifyFormat,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum VerifyFormat {
+    Human,
+    Json,
+}
+
+pub(super) fn verify(args: &VerifyArgs) -> crate::Result<Status> {
+    let machine = machine_file::load(&args.pass.machine)?;
+    let errors = error_file::load(&args.pass.errors, &machine)?;
+    let comp = Compensator::new(&machine, &errors, args.pass.options()?)?;
+    let (original, original_name) = read_file(&args.original)?;
+    let (written, written_name) = read_file(&args.compensated)?;
+    let dialect = comp.dialect_of(&original_name, &original);
+    let verdict = comp.verify(
+        crate::verify::Text {
+            name: &original_name,
+            src: &original,
+        },
+        crate::verify::Text {
+            name: &written_name,
+            src: &written,
+        },
+        dialect,
+    )?;
+    let status = if verdict.passed() {
+        Status::Clean
+    } else {
+        Status::Findings
+    };
+    match args.format {
+        VerifyFormat::Human => {
+            let color = use_color(&std::io::stdout());
+            let mut out = String::new();
+            for d in &verdict.findings {
+                out.push_str(&d.render_as(Severity::Error, color));
+                out.push('\n');
+            }
+            if verdict.passed() {
+                out.push_str(&format!("{written_name}: {verdict}\n"));
+            } else {
+                out.push_str(&format!(
+                    "{written_name}: {} as the control reads it: it does not put the tool on the nominal path of {original_name}\n",
+                    match verdict.findings.len() {
+                        1 => "1 finding".to_string(),
+                        n => format!("{n} findings"),
+                    }
+                ));
+            }
+            print(&out)?;
+        }
+        VerifyFormat::Json => {
+            let doc = serde_json::json!({
+                "format": "nccomp-verify",
+                "nccomp_version": env!("CARGO_PKG_VERSION"),
+                "original": original_name,
+                "compensated": written_name,
+                "status": if verdict.passed() { "clean" } else { "findings" },
+                "exit_code": status.exit_code(),
+                "block_delete_states": verdict.states.iter().map(|&on| if on { "on" } else { "off" }).collect::<Vec<_>>(),
+                "moves": verdict.moves,
+                "written_moves": verdict.written_moves,
+                "not_verified": verdict.not_followed.iter().map(|(k, n)| serde_json::json!({"kind": k.name(), "blocks": n})).collect::<Vec<_>>(),
+                "largest": {
+                    "end_position_mm": verdict.end_position.value,
+                    "end_direction_rad": verdict.end_direction.value,
+                    "path_position_mm": verdict.path_position.value,
+                    "path_direction_rad": verdict.path_direction.value,
+                },
+                "findings": verdict.findings.iter().map(|d| serde_json::json!({
+                    "file": d.path,
+                    "line": d.line,
+                    "column": d.column,
+                    "message": d.message,
+                })).collect::<Vec<_>>(),
+            });
+            let mut text = serde_json::to_string_pretty(&doc).expect("plain data serializes");
+            text.push('\n');
+            print(&text)?;
+        }
+    }
+    Ok(status)
+}
