@@ -273,6 +273,7 @@ fn three_axis_rotary(rotary_first: bool) -> nccomp::model::Machine {
         plane_solution: Default::default(),
         inch_default: false,
         cycle_r_initial: false,
+        block_delete: None,
         work_offsets: None,
     }
 }

@@ -73,6 +73,20 @@ pub(super) struct PassArgs {
     /// `sinumerik` Siemens 840D.
     #[arg(long, value_name = "DIALECT", default_value = "auto")]
     dialect: DialectArg,
+    /// The block delete switch the program will run with: `on` skips blocks with `/`
+    /// (they are copied unchanged), `off` runs them. Without it the output must be right
+    /// in both states, and nccomp refuses a program whose optional blocks make that
+    /// impossible.
+    #[arg(long, value_name = "on|off", value_parser = on_off)]
+    block_delete: Option<bool>,
+}
+
+fn on_off(text: &str) -> Result<bool, String> {
+    match text.to_ascii_lowercase().as_str() {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err(format!("expected `on` or `off`, found `{text}`")),
+    }
 }
 
 /// `--dialect`.
@@ -134,7 +148,7 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
     // output's place only when every block has been compensated (to standard output, an
     // unnamed one copied out at the end: a failed run writes nothing there either).
     // The gate reads the original again after the pass: standard input is kept.
-    let verify = options_verify(&comp);
+    let verify = comp.verifies();
     let (input, name, kept): (Box<dyn Read>, String, Option<Vec<u8>>) = if is_std(&args.input) {
         use std::io::IsTerminal;
         if std::io::stdin().is_terminal() {
@@ -178,7 +192,8 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
             let mut out = Vec::new();
             let mut summary = comp.run_stream(input, &name, &mut out, "<memory>")?;
             if verify && !summary.zero_model {
-                summary.verdict = Some(gate(&comp, &name, &original(&kept)?, &name, &out)?);
+                let verdict = gate(&comp, &summary, &name, &original(&kept)?, &name, &out)?;
+                summary.verdict = Some(verdict);
             }
             let (committed, expected_name) = read_file(expected)?;
             if let Some(diff) = crate::check::stale::compare(&expected_name, &committed, &out) {
@@ -202,13 +217,15 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
                     .and_then(|_| file.read_to_end(&mut written))
                     .and_then(|_| file.seek(SeekFrom::End(0)))
                     .map_err(|e| crate::Error::io(Path::new(&output_name), e))?;
-                summary.verdict = Some(gate(
+                let verdict = gate(
                     &comp,
+                    &summary,
                     &name,
                     &original(&kept)?,
                     &output_name,
                     &written,
-                )?);
+                )?;
+                summary.verdict = Some(verdict);
             }
             commit(vec![staged])?;
             summary
@@ -225,19 +242,19 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
     Ok(status)
 }
 
-fn options_verify(comp: &Compensator<'_>) -> bool {
-    comp.verifies()
-}
-
 /// The verification gate on a written program: its verdict, or the findings as refusals
 /// (exit 2; nothing is kept).
 fn gate(
     comp: &Compensator<'_>,
+    summary: &crate::compensate::Summary,
     name: &str,
     original: &[u8],
     written_name: &str,
     written: &[u8],
 ) -> crate::Result<crate::verify::Verdict> {
+    if let Some(d) = comp.predicted_beyond(summary, name, original) {
+        return Err(crate::Error::Input(Box::new(d)));
+    }
     let dialect = comp.dialect_of(name, original);
     let verdict = comp.verify(
         crate::verify::Text {
@@ -278,6 +295,7 @@ impl PassArgs {
                     ..Default::default()
                 }),
             dialect: self.dialect.get(),
+            block_delete: self.block_delete,
             ..Options::default()
         })
     }

@@ -66,6 +66,10 @@ pub struct Options {
     /// ([`crate::verify`]) before it is kept: [`Compensator::run`] refuses a program that
     /// fails. Off only to measure what the gate costs.
     pub verify: bool,
+    /// The block delete switch the output is for: `Some(true)` blocks with `/` are
+    /// skipped (copied unchanged, not read), `Some(false)` they run; `None`: the output
+    /// must be right in both states (the gate judges both).
+    pub block_delete: Option<bool>,
 }
 
 impl Default for Options {
@@ -81,6 +85,7 @@ impl Default for Options {
             threads: 1,
             dialect: None,
             verify: true,
+            block_delete: None,
         }
     }
 }
@@ -384,6 +389,11 @@ impl<'m> Compensator<'m> {
             }
         }
         let (mut summary, mut refused) = run.finish_all();
+        if refused.is_empty()
+            && let Some(d) = self.predicted_beyond(&summary, path, src)
+        {
+            refused.push(d);
+        }
         if refused.is_empty() && self.passes[0].options.verify {
             let written = crate::verify::Text {
                 name: path,
@@ -405,6 +415,44 @@ impl<'m> Compensator<'m> {
             }
         }
         (summary, refused)
+    }
+
+    /// The refusal of a program whose own prediction after compensation leaves the tip
+    /// further from the nominal one than the gate's end tolerance: such a program must
+    /// not pass as compensated, whether or not the gate follows the block.
+    pub fn predicted_beyond(&self, summary: &Summary, path: &str, src: &[u8]) -> Option<Diagnostic> {
+        let options = &self.passes[0].options;
+        let tolerances = crate::verify::Tolerances::new(
+            self.machine,
+            options.path.map(|t| (t.position, t.direction)),
+        );
+        let worst = summary.after_position;
+        let held_linear = self.passes.iter().any(|p| {
+            (0..p.kin.len()).any(|v| p.is_linear(v) && p.hold & !p.idle & (1 << v) != 0)
+        });
+        if summary.zero_model || held_linear || worst.value <= tolerances.end_position {
+            return None;
+        }
+        let offset = nc::lines(src)
+            .nth(worst.line.saturating_sub(1))
+            .map_or(0, |l| l.offset);
+        Some(Diagnostic::at(
+            path,
+            src,
+            offset,
+            format!(
+                "nccomp's own prediction leaves the tool tip {:.4} mm from the nominal one after compensation here, beyond the tolerance of {:.4} mm: this block cannot be compensated to it (expected a pose the solve can reach, e.g. away from a singular direction)",
+                worst.value, tolerances.end_position
+            ),
+        ))
+    }
+
+    /// The block delete state outputs are for: the option's, else the machine file's.
+    pub fn block_delete(&self) -> Option<bool> {
+        self.passes[0]
+            .options
+            .block_delete
+            .or(self.machine.block_delete)
     }
 
     /// Whether outputs are verified ([`Options::verify`]).
@@ -431,7 +479,7 @@ impl<'m> Compensator<'m> {
         );
         let gate =
             crate::verify::Gate::with_chains(self.machine, chains, tolerances, &options.hold);
-        gate.verify(original, written, dialect, self.start)
+        gate.verify(original, written, dialect, self.start, self.block_delete())
     }
 
     /// The dialect program `src` of file `name` is read in (`src`: the program, or its
@@ -483,6 +531,9 @@ impl<'m> Compensator<'m> {
         for v in 0..first.kin.len() {
             state.decimals[v] = first.res_decimals(v, Unit::MM);
         }
+        // An axis the program has not set stands where the operator left it: not known
+        // until a word sets it (not at home).
+        state.pos.unknown = ((1u32 << first.kin.len()) - 1) & !(first.spindle | first.idle);
         state
     }
 }

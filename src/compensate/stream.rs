@@ -120,6 +120,17 @@ impl<'c, 'm> Run<'c, 'm> {
             return self.errors.len() < comp.passes[state.pass].options.max_errors;
         }
         crate::program::tokenize(&state.modal, line.content, &mut self.tokens);
+        if comp.block_delete() == Some(true)
+            && self.tokens.iter().any(|t| t.kind == TokenKind::BlockDelete)
+        {
+            // With block delete on the control skips the block: so does the pass.
+            self.edits.clear();
+            if state.modal.dialect == nc::Dialect::Heidenhain {
+                renumber(line, &self.tokens, &mut self.edits, &mut state.renumber);
+            }
+            nc::emit_line(line, &mut self.edits, out);
+            return true;
+        }
         // The texts of the last line's edits hold their allocations for this line's.
         // (A few: edits made elsewhere do not take from them.)
         for edit in self.edits.drain(..) {

@@ -148,6 +148,7 @@ fn iso_machine() -> Machine {
         codes: Default::default(),
         plane_solution: Default::default(),
         inch_default: false,
+        block_delete: None,
         cycle_r_initial: false,
         work_offsets: None,
     }

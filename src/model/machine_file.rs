@@ -69,6 +69,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
             "work_offsets",
             "units",
             "cycles",
+            "block_delete",
         ],
         "the machine file",
     )?;
@@ -89,6 +90,19 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
             }
         },
         None => false,
+    };
+    let block_delete = match root.get("block_delete") {
+        Some(v) => match doc.string(v, "`block_delete`")? {
+            "on" => Some(true),
+            "off" => Some(false),
+            other => {
+                return Err(doc.err(
+                    v.span(),
+                    format!("`{other}` in `block_delete`: expected \"on\" (blocks with / are skipped) or \"off\" (they run), the switch's state when this machine runs programs"),
+                ));
+            }
+        },
+        None => None,
     };
     let cycle_r_initial = match root.get("cycles") {
         Some(v) => cycles(&doc, v)?,
@@ -301,6 +315,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         inch_default,
         work_offsets,
         cycle_r_initial,
+        block_delete,
     })
 }
 

@@ -206,6 +206,9 @@ pub struct Machine {
     /// (machine file `[cycles] missing_r = "initial"`, a Haas control); otherwise it is
     /// refused.
     pub cycle_r_initial: bool,
+    /// The block delete switch's state when this machine runs programs (machine file
+    /// `block_delete = "on"|"off"`); `None`: not declared, outputs must be right in both.
+    pub block_delete: Option<bool>,
 }
 
 /// The work offset table of a controller: where each program zero lies, in machine

@@ -45,11 +45,18 @@ impl Tolerances {
     pub fn new(machine: &Machine, path: Option<(f64, f64)>) -> Tolerances {
         let (p, d) = path.unwrap_or((0.001, 10e-6));
         let r = Tolerances::rounding(machine);
+        let ra = Tolerances::angular_rounding(machine);
         Tolerances {
             end_position: p + r,
-            end_direction: d,
-            path: path.map(|(p, d)| (p + r, d)),
+            end_direction: d + ra,
+            path: path.map(|(p, d)| (p + r, d + ra)),
         }
+    }
+
+    /// How far rounding two rotary words to the machine's resolution can turn the tool:
+    /// half a step on each (rad).
+    pub fn angular_rounding(machine: &Machine) -> f64 {
+        0.5_f64.sqrt() * machine.resolution.rotary.to_radians()
     }
 
     /// How far rounding the words to the machine's resolution can move the tool tip: half
@@ -88,6 +95,8 @@ pub struct Verdict {
     /// The block-delete states judged: `false` every block runs, `true` blocks with `/`
     /// are skipped. A program without `/` is judged once.
     pub states: Vec<bool>,
+    /// The original has blocks with `/`.
+    pub has_optional: bool,
     /// Original moves judged, and written moves (pieces included), over all states.
     pub moves: usize,
     pub written_moves: usize,
@@ -100,6 +109,9 @@ pub struct Verdict {
     pub path_direction: Worst,
     /// Disagreements beyond the tolerances, located in the written program.
     pub findings: Vec<Diagnostic>,
+    /// Why the program was not verified at all (a linear axis held by `--hold`: the tip
+    /// cannot be put on the nominal path, and the pass reports what is left).
+    pub skipped: Option<String>,
 }
 
 impl Verdict {
@@ -122,8 +134,11 @@ impl Verdict {
 
 impl std::fmt::Display for Verdict {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(why) = &self.skipped {
+            return write!(f, "not verified as the control reads it: {why}");
+        }
         let states = match self.states.as_slice() {
-            [false] => "".to_string(),
+            _ if !self.has_optional => "".to_string(),
             s => format!(
                 " (block delete {})",
                 s.iter()
@@ -243,6 +258,14 @@ impl<'m> Gate<'m> {
         }
     }
 
+    /// The name of a linear axis of chain `chain` that the user holds, if any.
+    fn held_linear(&self, chain: usize) -> Option<String> {
+        let kin = &self.chains[chain];
+        (0..kin.len())
+            .find(|&v| kin.kind(v) == AxisKind::Linear && self.held[chain] & (1 << v) != 0)
+            .map(|v| self.machine.axes[kin.axes()[v]].name.clone())
+    }
+
     /// The kinematics of chain `chain` for program zero `shift`.
     fn kin(&self, chain: usize, shift: [f64; 3]) -> std::rc::Rc<Kinematics> {
         let mut cache = self.shifted.borrow_mut();
@@ -277,12 +300,25 @@ impl<'m> Gate<'m> {
         written: Text<'_>,
         dialect: Dialect,
         start_chain: usize,
+        block_delete: Option<bool>,
     ) -> crate::Result<Verdict> {
         let mut verdict = Verdict::default();
-        // Block delete off first; a program with `/` blocks then with it on.
+        if let Some(name) = self.held_linear(start_chain) {
+            verdict.skipped = Some(format!(
+                "linear axis {name} is held (--hold), so the tip is not put on the nominal path; the predicted errors above are what is left"
+            ));
+            return Ok(verdict);
+        }
+        // Block delete off first; a program with `/` blocks then with it on (unless the
+        // user declared the state).
         let mut both = false;
-        for skip in [false, true] {
-            if skip && !both {
+        let states: &[bool] = match block_delete {
+            Some(true) => &[true],
+            Some(false) => &[false],
+            None => &[false, true],
+        };
+        for &skip in states {
+            if skip && !both && block_delete.is_none() {
                 break;
             }
             verdict.states.push(skip);
@@ -292,7 +328,13 @@ impl<'m> Gate<'m> {
             self.judge(&mut orig, &mut out, original, written, state, &mut verdict);
             // Read the original to its end: its refusals, and whether it has `/` blocks.
             while orig.take().is_some() {}
-            if let Some(d) = orig.error {
+            if let Some(mut d) = orig.error {
+                if skip {
+                    d.message = format!(
+                        "with block delete on (blocks with / skipped) the control reads this block, and nccomp cannot follow it: {} (expected the switch's state given by --block-delete off or the machine file's block_delete = \"off\", or a program right in both states)",
+                        d.message
+                    );
+                }
                 return Err(crate::Error::Input(Box::new(d)));
             }
             if let Some(d) = out.error {
@@ -304,7 +346,8 @@ impl<'m> Gate<'m> {
                     ..d
                 });
             }
-            if !skip && orig.items.has_optional() {
+            verdict.has_optional |= orig.items.has_optional();
+            if !skip && orig.items.has_optional() && block_delete.is_none() {
                 both = true;
                 // The first state's messages named no state: they hold with block delete off.
                 for d in &mut verdict.findings {
@@ -458,6 +501,17 @@ impl<'m> Gate<'m> {
         (self.real_at(w, &w.mv.end).p - self.nominal_end(o).p).norm()
     }
 
+    /// Whether a rotary axis ends written `w` at the value original `o` gives it: held
+    /// there (at a travel limit, or by rounding), so the direction error about it is the
+    /// one the pass reports, not a finding.
+    fn rotary_as_programmed(&self, o: &Step, w: &Step) -> bool {
+        let kin = self.kin(o.chain, o.shift);
+        w.chain == o.chain
+            && (0..kin.len()).any(|v| {
+                kin.kind(v) == AxisKind::Rotary && (w.mv.end[v] - o.mv.end[v]).abs() < 1e-9
+            })
+    }
+
     /// Whether written step `w` ends where original step `o` does (tip within the end
     /// tolerance, and the direction where it is judged).
     fn ends_together(&self, o: &Step, w: &Step) -> bool {
@@ -466,7 +520,8 @@ impl<'m> Gate<'m> {
         if (real.p - target.p).norm() > self.tolerances.end_position {
             return false;
         }
-        !self.direction_judged(o, &o.mv.end)
+        self.rotary_as_programmed(o, w)
+            || !self.direction_judged(o, &o.mv.end)
             || angle_between(&real.o, &target.o) <= self.tolerances.end_direction
     }
 
@@ -500,6 +555,7 @@ impl<'m> Gate<'m> {
     fn judge_move(&self, o: &Step, pieces: &[Step], verdict: &mut Verdict) -> Vec<(usize, String)> {
         let mut found = Vec::new();
         let n = self.kin(o.chain, o.shift).len();
+        let held = self.rotary_as_programmed(o, pieces.last().unwrap_or(o));
         let tol = self.tolerances;
         // Each piece's end on the original move: the last at its end, the others where
         // they come nearest the nominal path.
@@ -518,7 +574,7 @@ impl<'m> Gate<'m> {
             };
             let direction = {
                 let q = o.mv.at(landing.s, n);
-                if self.direction_judged(o, &q) {
+                if !held && self.direction_judged(o, &q) {
                     angle_between(&real.o, &self.nominal_at(o, &q).o)
                 } else {
                     0.0
@@ -570,7 +626,7 @@ impl<'m> Gate<'m> {
                 let real = self.real_at(w, &w.mv.at(t, n));
                 let dp = (real.p - target.p).norm();
                 worst_p = worst_p.max(dp);
-                if self.direction_judged(o, &q_o) {
+                if !held && self.direction_judged(o, &q_o) {
                     worst_d = worst_d.max(angle_between(&real.o, &target.o));
                 }
             }

@@ -190,11 +190,21 @@ impl<'m> Follower<'m> {
             col,
         ) {
             Ok(Some((start, end, shape))) => {
-                let start = if self.after_gap || !known_before {
+                let mut start = if self.after_gap || !known_before {
                     None
                 } else {
                     start
                 };
+                // A rollover axis (FANUC ROA) turns the shortest way to its word: the move
+                // starts whole turns from where the words left it.
+                if let Some(from) = start.as_mut() {
+                    for (v, &axis) in self.machine.variables(self.modal.chain).iter().enumerate() {
+                        if v < n && self.machine.axes[axis].rollover {
+                            let d = end[v] - from[v];
+                            from[v] = end[v] - (d - 360.0 * (d / 360.0).round());
+                        }
+                    }
+                }
                 self.after_gap = false;
                 Ok(Some(Item::Move(Step {
                     mv: NominalMove {

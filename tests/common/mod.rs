@@ -60,6 +60,7 @@ pub fn ac_trunnion(a_point: [f64; 3], c_point: [f64; 3]) -> Machine {
         plane_solution: Default::default(),
         inch_default: false,
         cycle_r_initial: false,
+        block_delete: None,
         work_offsets: None,
     }
 }
@@ -88,6 +89,7 @@ pub fn head_head(pivot: f64) -> Machine {
         plane_solution: Default::default(),
         inch_default: false,
         cycle_r_initial: false,
+        block_delete: None,
         work_offsets: None,
     }
 }

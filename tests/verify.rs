@@ -1,0 +1,331 @@
+//! The verification gate (`nccomp verify`, and the gate every `compensate` output passes):
+//! written programs read back as the control reads them and held against the original's
+//! nominal path.
+
+mod common;
+
+use common::cli::{nccomp, scratch, stderr, stdout};
+use std::path::{Path, PathBuf};
+
+/// A three-axis machine writing three decimals (X, Y move the table, Z the head).
+const THREE_AXIS: &str = r#"
+name = "three-axis, 0.001 mm"
+workpiece_chain = ["Y", "X"]
+tool_chain = ["Z"]
+resolution = { linear = 0.001, rotary = 0.001 }
+
+[axes.X]
+kind = "linear"
+direction = [-1, 0, 0]
+travel = [-1000, 1000]
+
+[axes.Y]
+kind = "linear"
+direction = [0, -1, 0]
+travel = [-1000, 1000]
+
+[axes.Z]
+kind = "linear"
+direction = [0, 0, 1]
+travel = [-500, 500]
+"#;
+
+/// Positioning errors of X and Y only: -10 µm/m.
+const SCALE: &str = r#"
+length_unit = "um"
+angle_unit = "urad"
+
+[motion.X]
+positions = [-1000.0, 1000.0]
+EXX = [10.0, -10.0]
+
+[motion.Y]
+positions = [-1000.0, 1000.0]
+EYY = [10.0, -10.0]
+"#;
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// The arc of the issue: a short G3 whose centre, fitted to rounded ends, can land across
+/// the chord.
+const SHORT_ARC: &str = "G90 G17 G21\nG0 X122.439 Y143.682 Z40.\nG3 X122.223 Y143.75 I-5.24 J-16.476 F250\nM30\n";
+
+#[test]
+fn a_mirrored_arc_fails_verify_at_its_line() {
+    let dir = scratch("verify-mirrored");
+    let machine = write(&dir, "m.toml", THREE_AXIS);
+    let errors = write(&dir, "e.toml", SCALE);
+    let original = write(&dir, "arc.nc", SHORT_ARC);
+    // What nccomp once wrote: the centre across the chord, so that G3 turns 359.77°.
+    let broken = write(
+        &dir,
+        "arc.comp.nc",
+        "G90 G17 G21\nG0 X122.438 Y143.681 Z40.\nG3 X122.222 Y143.749 I16.881 J54.000 F250\nM30\n",
+    );
+    let out = nccomp(&[
+        "verify",
+        "-m",
+        s(&machine),
+        "-e",
+        s(&errors),
+        s(&original),
+        s(&broken),
+    ]);
+    assert_eq!(out.status.code(), Some(1), "{}", stdout(&out));
+    let text = stdout(&out);
+    assert!(text.contains("arc.comp.nc:3:"), "{text}");
+    assert!(text.contains("original's move at line 3"), "{text}");
+}
+
+#[test]
+fn the_short_arc_is_refused_or_right_as_the_control_reads_it() {
+    let dir = scratch("verify-short-arc");
+    let machine = write(&dir, "m.toml", THREE_AXIS);
+    let errors = write(&dir, "e.toml", SCALE);
+    let original = write(&dir, "arc.nc", SHORT_ARC);
+    let output = dir.join("arc.comp.nc");
+    let out = nccomp(&[
+        "compensate",
+        "-m",
+        s(&machine),
+        "-e",
+        s(&errors),
+        s(&original),
+        "-o",
+        s(&output),
+    ]);
+    match out.status.code() {
+        Some(2) => assert!(!output.exists()),
+        Some(0) => {
+            let written = std::fs::read_to_string(&output).unwrap();
+            // The control's arc: from the written start, G3 (counter-clockwise) about the
+            // written centre. Its sweep must be the short one, as the original's.
+            let words = |line: &str, l: char| -> Option<f64> {
+                let i = line.find(l)?;
+                let rest = &line[i + 1..];
+                let end = rest
+                    .find(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-'))
+                    .unwrap_or(rest.len());
+                rest[..end].parse().ok()
+            };
+            let lines: Vec<&str> = written.lines().collect();
+            let arc = lines.iter().find(|l| l.starts_with("G3")).copied();
+            if let Some(arc) = arc {
+                let start = lines[1];
+                let (x0, y0) = (words(start, 'X').unwrap(), words(start, 'Y').unwrap());
+                let (x1, y1) = (words(arc, 'X').unwrap(), words(arc, 'Y').unwrap());
+                let (i, j) = (words(arc, 'I').unwrap(), words(arc, 'J').unwrap());
+                let (cx, cy) = (x0 + i, y0 + j);
+                let th0 = (y0 - cy).atan2(x0 - cx);
+                let th1 = (y1 - cy).atan2(x1 - cx);
+                let sweep = (th1 - th0).rem_euclid(std::f64::consts::TAU);
+                assert!(sweep < 0.1, "the control turns {sweep} rad: {written}");
+            }
+            let check = nccomp(&[
+                "verify",
+                "-m",
+                s(&machine),
+                "-e",
+                s(&errors),
+                s(&original),
+                s(&output),
+            ]);
+            assert_eq!(check.status.code(), Some(0), "{}", stdout(&check));
+        }
+        other => panic!("exit {other:?}: {}", stderr(&out)),
+    }
+}
+
+/// Compensate `program` with the fixture machine `machine` into `dir`, then verify.
+fn compensate_and_verify(dir: &Path, machine: &str, program: &str) -> PathBuf {
+    let m = format!("fixtures/{machine}.machine.toml");
+    let e = format!("fixtures/{machine}.errors.toml");
+    let name = Path::new(program).file_name().unwrap().to_str().unwrap();
+    let output = dir.join(name);
+    let out = nccomp(&["compensate", "-m", &m, "-e", &e, program, "-o", s(&output)]);
+    assert_eq!(out.status.code(), Some(0), "{program}: {}", stderr(&out));
+    assert!(
+        stderr(&out).contains("verified as the control reads it"),
+        "{}",
+        stderr(&out)
+    );
+    let check = nccomp(&["verify", "-m", &m, "-e", &e, program, s(&output)]);
+    assert_eq!(check.status.code(), Some(0), "{program}: {}", stdout(&check));
+    output
+}
+
+/// `text` with the number after `letter` (and an optional `=`) on the first line that
+/// contains `marker` moved by `delta`.
+fn nudge(text: &str, marker: &str, letter: char, delta: f64) -> String {
+    let mut done = false;
+    let lines: Vec<String> = text
+        .lines()
+        .map(|line| {
+            if done || !line.contains(marker) {
+                return line.to_string();
+            }
+            let Some(i) = line.find(&format!(" {letter}")) else {
+                return line.to_string();
+            };
+            let mut start = i + 2;
+            if line[start..].starts_with('=') {
+                start += 1;
+            }
+            let rest = &line[start..];
+            let end = rest
+                .find(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-' || c == '+'))
+                .unwrap_or(rest.len());
+            let value: f64 = rest[..end].parse().unwrap();
+            done = true;
+            format!("{}{:.4}{}", &line[..start], value + delta, &rest[end..])
+        })
+        .collect();
+    assert!(done, "no line with {marker}");
+    lines.join("\n") + "\n"
+}
+
+#[test]
+fn verify_passes_on_outputs_and_finds_a_hand_broken_word_in_each_dialect() {
+    let dir = scratch("verify-dialects");
+    for (machine, program, marker, letter) in [
+        ("ac_trunnion", "fixtures/feature_workpiece.nc", "N190 ", 'X'),
+        ("ac_trunnion", "fixtures/tnc_ac_trunnion.h", "L X+0 Y+0 Z+250", 'Z'),
+        ("ac_trunnion", "fixtures/840d_variables.mpf", "N150 ", 'Z'),
+    ] {
+        let output = compensate_and_verify(&dir, machine, program);
+        let text = std::fs::read_to_string(&output).unwrap();
+        let broken = dir.join(format!(
+            "broken.{}",
+            output.extension().unwrap().to_str().unwrap()
+        ));
+        std::fs::write(&broken, nudge(&text, marker, letter, 0.01)).unwrap();
+        let m = format!("fixtures/{machine}.machine.toml");
+        let e = format!("fixtures/{machine}.errors.toml");
+        let check = nccomp(&["verify", "-m", &m, "-e", &e, program, s(&broken)]);
+        assert_eq!(check.status.code(), Some(1), "{program}: {}", stdout(&check));
+        let json = nccomp(&[
+            "verify", "-m", &m, "-e", &e, program, s(&broken), "--format", "json",
+        ]);
+        let doc: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+        assert_eq!(doc["status"], "findings");
+        let finding = &doc["findings"][0];
+        let line = finding["line"].as_u64().unwrap() as usize;
+        let written_line = nudge(&text, marker, letter, 0.01)
+            .lines()
+            .nth(line - 1)
+            .unwrap()
+            .to_string();
+        assert!(
+            written_line.contains(marker) || finding["message"].as_str().unwrap().contains("line"),
+            "{program}: finding at {line}: {written_line}"
+        );
+    }
+}
+
+#[test]
+fn an_optional_move_is_judged_in_both_block_delete_states() {
+    let dir = scratch("verify-optional");
+    let program = write(
+        &dir,
+        "optional.nc",
+        "G90 G21 G17\nG0 X-40. Y-30. Z20. A0 C0\nG1 Z5. F500\n/G1 X40. Y30.\nG1 X60. Y-40.\nG0 Z50.\nM30\n",
+    );
+    let m = "fixtures/ac_trunnion.machine.toml";
+    let e = "fixtures/ac_trunnion.errors.toml";
+    let output = dir.join("optional.comp.nc");
+    let out = nccomp(&["compensate", "-m", m, "-e", e, s(&program), "-o", s(&output)]);
+    match out.status.code() {
+        Some(0) => {
+            // Right in both states, and said so.
+            assert!(
+                stderr(&out).contains("block delete off and on"),
+                "{}",
+                stderr(&out)
+            );
+        }
+        Some(2) => {
+            let text = stderr(&out);
+            assert!(text.contains("block delete on"), "{text}");
+            assert!(!output.exists());
+        }
+        other => panic!("exit {other:?}: {}", stderr(&out)),
+    }
+    // Declared states: each output is right for its state, and the summary says which.
+    for state in ["on", "off"] {
+        let output = dir.join(format!("optional.{state}.nc"));
+        let out = nccomp(&[
+            "compensate",
+            "-m",
+            m,
+            "-e",
+            e,
+            s(&program),
+            "-o",
+            s(&output),
+            "--block-delete",
+            state,
+        ]);
+        assert_eq!(out.status.code(), Some(0), "{state}: {}", stderr(&out));
+        assert!(
+            stderr(&out).contains(&format!("(block delete {state})")),
+            "{}",
+            stderr(&out)
+        );
+        let check = nccomp(&[
+            "verify",
+            "-m",
+            m,
+            "-e",
+            e,
+            s(&program),
+            s(&output),
+            "--block-delete",
+            state,
+        ]);
+        assert_eq!(check.status.code(), Some(0), "{state}: {}", stdout(&check));
+    }
+}
+
+#[test]
+fn report_prints_the_summary_compensate_prints() {
+    let dir = scratch("verify-report");
+    for (machine, program) in [
+        ("ac_trunnion", "fixtures/feature_workpiece.nc"),
+        ("ac_trunnion", "fixtures/tnc_ac_trunnion.h"),
+        ("ac_trunnion", "fixtures/840d_ac_trunnion_swivel.mpf"),
+    ] {
+        let m = format!("fixtures/{machine}.machine.toml");
+        let e = format!("fixtures/{machine}.errors.toml");
+        let comp = nccomp(&[
+            "compensate",
+            "-m",
+            &m,
+            "-e",
+            &e,
+            program,
+            "-o",
+            s(&dir.join("out")),
+        ]);
+        assert_eq!(comp.status.code(), Some(0), "{}", stderr(&comp));
+        let report = nccomp(&[
+            "report",
+            "-m",
+            &m,
+            "-e",
+            &e,
+            program,
+            "-o",
+            s(&dir.join("r.html")),
+        ]);
+        assert_eq!(report.status.code(), Some(0), "{}", stderr(&report));
+        assert_eq!(stderr(&report), stderr(&comp), "{program}");
+    }
+}
