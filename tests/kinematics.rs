@@ -274,6 +274,7 @@ fn three_axis_rotary(rotary_first: bool) -> nccomp::model::Machine {
         inch_default: false,
         cycle_r_initial: false,
         block_delete: None,
+        start: Vec::new(),
         work_offsets: None,
     }
 }

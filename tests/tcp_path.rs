@@ -478,16 +478,17 @@ fn g43_ends_tcp_and_tcp_notes_axes_it_assumed_at_home() {
     let (ideal, _) = kin.pose(Model::Nominal, &[12.5, 3.0, 40.0, -30.0, 20.0], L);
     assert!((real.p - ideal.p).norm() < 2e-4, "{written}");
     // TCP switched on before the program set X and Y, and a block that leaves them out:
-    // the tip's X and Y are where the axes' home values put it, and the summary says so.
+    // where the tip is is not known, and the feed move is refused.
     let program = "G21 G90\nG43.4 H1\nG1 Z5 A-30 C20 F500\nM30\n";
     let mut out = Vec::new();
-    let summary = comp.run(program.as_bytes(), "p.nc", &mut out).unwrap();
-    let assumed: Vec<&str> = summary
-        .assumed_home
-        .iter()
-        .map(|(a, _)| a.as_str())
-        .collect();
-    assert_eq!(assumed, ["X", "Y"]);
+    let err = comp
+        .run(program.as_bytes(), "p.nc", &mut out)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("p.nc:3:4: where the tool stands before this block under G43.4 is not known"),
+        "{err}"
+    );
 }
 
 /// Haas's TCPC: `G234 H…` switches tool-centre-point control on, G49 off. A machine file

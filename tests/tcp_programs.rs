@@ -208,13 +208,13 @@ fn g43_5_refuses_rotary_words_and_zero_vectors() {
     for (program, col, what) in [
         ("G43.5 H1\nG1 X1 Y2 Z30 A-20\n", 14, "A is a rotary word"),
         (
-            "G43.5 H1\nG1 X1 I0 J0 K0\n",
-            4,
+            "G43.5 H1\nG1 X1 Y2 Z30 I0 J0 K0\n",
+            16,
             "the tool vector I, J, K is zero",
         ),
         (
-            "G43.5 H1\nG1 X1 R5\n",
-            7,
+            "G43.5 H1\nG1 X1 Y2 Z30 R5\n",
+            16,
             "R words are not expected under G43.5",
         ),
     ] {

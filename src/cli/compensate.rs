@@ -270,7 +270,12 @@ fn gate(
     if verdict.passed() {
         Ok(verdict)
     } else {
-        Err(crate::Error::Inputs(verdict.findings))
+        Err(crate::Error::Inputs(verdict.in_original(
+            crate::verify::Text {
+                name,
+                src: original,
+            },
+        )))
     }
 }
 

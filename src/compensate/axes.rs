@@ -105,7 +105,6 @@ impl Mode for AxesMode {
         let n = pass.kin.len();
         if pass.options.path.is_some()
             && !state.modal.rapid
-            && !cx.motion.optional
             && (0..n).all(|v| (self.start_known | pass.idle) & (1 << v) != 0)
         {
             // A rollover axis turns the shortest way to its word.

@@ -112,6 +112,10 @@ impl Compensator<'_> {
         let was_tcp = state.modal.tcp.then_some(state.modal.tcp_vector);
         let was_plane = (state.modal.working_plane, state.modal.length);
         let read = self.reader.read(line, tokens, &mut state.modal, at, motion);
+        if self.block_delete() == Some(false) {
+            // Declared off: a block with `/` runs like any other.
+            motion.optional = false;
+        }
         if (state.modal.chain, state.modal.spindle) == before {
             // The usual block: the pass stays (a machine with one chain and no lathe never
             // leaves it).

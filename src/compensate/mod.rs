@@ -401,7 +401,7 @@ impl<'m> Compensator<'m> {
             };
             match self.verify(crate::verify::Text { name: path, src }, written, dialect) {
                 Ok(verdict) if verdict.passed() => summary.verdict = Some(verdict),
-                Ok(verdict) => refused = verdict.findings,
+                Ok(verdict) => refused = verdict.in_original(crate::verify::Text { name: path, src }),
                 Err(crate::Error::Input(d)) => refused = vec![*d],
                 Err(crate::Error::Inputs(ds)) => refused = ds,
                 Err(e) => {
@@ -534,6 +534,14 @@ impl<'m> Compensator<'m> {
         // An axis the program has not set stands where the operator left it: not known
         // until a word sets it (not at home).
         state.pos.unknown = ((1u32 << first.kin.len()) - 1) & !(first.spindle | first.idle);
+        for &(axis, value) in &self.machine.start {
+            if let Some(v) = first.kin.axes().iter().position(|&a| a == axis) {
+                state.pos.unknown &= !(1 << v);
+                state.pos.nominal[v] = value;
+                state.emitted[v] = value;
+                state.previous[v] = value;
+            }
+        }
         state
     }
 }

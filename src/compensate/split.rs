@@ -164,7 +164,9 @@ impl Pass<'_> {
             if let Some(sol) = &piece.solution {
                 self.record(line.number, sol, state, out.summary);
             }
-            let _ = write!(text, "{}{}", words.join(style.separator), ending);
+            // A piece of an optional block is optional too: skipped with its block.
+            let skip = if cx.motion.optional { "/" } else { "" };
+            let _ = write!(text, "{skip}{}{}", words.join(style.separator), ending);
         }
         if state.modal.inverse_time
             && let Some(f) = f_word

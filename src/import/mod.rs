@@ -149,6 +149,7 @@ fn iso_machine() -> Machine {
         plane_solution: Default::default(),
         inch_default: false,
         block_delete: None,
+        start: Vec::new(),
         cycle_r_initial: false,
         work_offsets: None,
     }

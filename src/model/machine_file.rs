@@ -70,6 +70,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
             "units",
             "cycles",
             "block_delete",
+            "start",
         ],
         "the machine file",
     )?;
@@ -302,6 +303,10 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         None => None,
     };
 
+    let start = match root.get("start") {
+        Some(v) => start(&doc, v, &axes)?,
+        None => Vec::new(),
+    };
     Ok(Machine {
         name,
         axes,
@@ -316,7 +321,33 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         work_offsets,
         cycle_r_initial,
         block_delete,
+        start,
     })
+}
+
+/// `[start]`: where axes stand when a program starts (the set-up's positions, e.g.
+/// `A = 0.0` for a rotary table a three-axis job never turns), by axis name, mm or degrees.
+fn start(doc: &Doc, v: &Spanned<DeValue>, axes: &[Axis]) -> Result<Vec<(usize, f64)>> {
+    let t = doc.table(
+        v,
+        "[start], a table of axis positions at the program's start such as `A = 0.0`",
+    )?;
+    let mut out = Vec::new();
+    for (key, value) in t.iter() {
+        let name = key.get_ref();
+        let Some(i) = axes.iter().position(|a| a.name == *name) else {
+            let names: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
+            return Err(doc.err(
+                key.span(),
+                format!(
+                    "axis `{name}` in [start] is not defined as [axes.{name}]; the defined axes are {}",
+                    names.join(", ")
+                ),
+            ));
+        };
+        out.push((i, doc.number(value, &format!("`{name}` in [start]"))?));
+    }
+    Ok(out)
 }
 
 /// `[cycles]`: `missing_r = "initial"` says that this control takes the level a drilling

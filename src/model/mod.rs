@@ -209,6 +209,10 @@ pub struct Machine {
     /// The block delete switch's state when this machine runs programs (machine file
     /// `block_delete = "on"|"off"`); `None`: not declared, outputs must be right in both.
     pub block_delete: Option<bool>,
+    /// Where axes stand when a program starts (machine file `[start]`): machine axis
+    /// index and value (mm, degrees). Axes not given stand where the program has not
+    /// said: not known until it sets them.
+    pub start: Vec<(usize, f64)>,
 }
 
 /// The work offset table of a controller: where each program zero lies, in machine

@@ -107,8 +107,10 @@ pub struct Verdict {
     pub end_direction: Worst,
     pub path_position: Worst,
     pub path_direction: Worst,
-    /// Disagreements beyond the tolerances, located in the written program.
+    /// Disagreements beyond the tolerances, located in the written program ...
     pub findings: Vec<Diagnostic>,
+    /// ... and the original's line each belongs to (0: none).
+    pub original_lines: Vec<usize>,
     /// Why the program was not verified at all (a linear axis held by `--hold`: the tip
     /// cannot be put on the nominal path, and the pass reports what is left).
     pub skipped: Option<String>,
@@ -117,6 +119,28 @@ pub struct Verdict {
 impl Verdict {
     pub fn passed(&self) -> bool {
         self.findings.is_empty()
+    }
+
+    /// The findings located in the original program `original` (for a run that keeps no
+    /// written program to point at), each naming its written line.
+    pub fn in_original(&self, original: Text<'_>) -> Vec<Diagnostic> {
+        self.findings
+            .iter()
+            .enumerate()
+            .map(|(k, d)| match self.original_lines.get(k).copied().unwrap_or(0) {
+                0 => d.clone(),
+                line => Diagnostic::at(
+                    original.name,
+                    original.src,
+                    line_offset(original.src, line),
+                    format!(
+                        "{} (the compensated block would be line {} of the output; nothing was written)",
+                        d.message.replace(&format!("the original's move at line {line}"), "this block's move"),
+                        d.line
+                    ),
+                ),
+            })
+            .collect()
     }
 
     /// Blocks not followed, over all kinds.
@@ -372,11 +396,12 @@ impl<'m> Gate<'m> {
         O: Iterator<Item = Result<Item, Diagnostic>>,
         W: Iterator<Item = Result<Item, Diagnostic>>,
     {
-        let finding = |verdict: &mut Verdict, w_line: usize, message: String| {
+        let finding = |verdict: &mut Verdict, w_line: usize, o_line: usize, message: String| {
             let offset = line_offset(written.src, w_line);
             verdict
                 .findings
                 .push(Diagnostic::at(written.name, written.src, offset, message));
+            verdict.original_lines.push(o_line);
         };
         // After a stretch the gate does not follow, the written program is taken up again
         // at the first written move that ends where the original's next move ends.
@@ -406,6 +431,7 @@ impl<'m> Gate<'m> {
                                     finding(
                                         verdict,
                                         w_line,
+                                        o.mv.line,
                                         format!(
                                             "the written program{state} has no move that ends where the original's move at line {} ends, as the control reads it",
                                             o.mv.line
@@ -430,6 +456,7 @@ impl<'m> Gate<'m> {
                                     finding(
                                         verdict,
                                         w.mv.line,
+                                        o.mv.line,
                                         format!(
                                             "this move{state} does not end where the original's move at line {} ends, as the control reads the written words (the real tool tip {:.4} mm from the nominal one)",
                                             o.mv.line,
@@ -445,6 +472,7 @@ impl<'m> Gate<'m> {
                                 finding(
                                     verdict,
                                     last,
+                                    o.mv.line,
                                     format!(
                                         "the written program{state} has no move that ends where the original's move at line {} ends, as the control reads it",
                                         o.mv.line
@@ -457,7 +485,7 @@ impl<'m> Gate<'m> {
                     verdict.moves += 1;
                     verdict.written_moves += pieces.len();
                     for (w_line, text) in self.judge_move(&o, &pieces, verdict) {
-                        finding(verdict, w_line, format!("{text}{state}"));
+                        finding(verdict, w_line, o.mv.line, format!("{text}{state}"));
                     }
                 }
             }
@@ -469,6 +497,7 @@ impl<'m> Gate<'m> {
                 finding(
                     verdict,
                     w.mv.line,
+                    0,
                     format!(
                         "the written program{state} moves after the original's last move ({}), as the control reads it",
                         original.name

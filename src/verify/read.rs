@@ -55,6 +55,10 @@ pub struct Step {
     pub shift: [f64; 3],
     /// Under G0 (a controller may dogleg a rapid: only its end is judged).
     pub rapid: bool,
+    /// Under tool-centre-point control with rotary words: the linear values are the tool
+    /// tip in the part frame, and the controller solves the linear axes (nominal inverse
+    /// kinematics) for every point of the tip and rotary values interpolated linearly.
+    pub tcp: bool,
 }
 
 /// What the gate reads of one block.
@@ -90,8 +94,15 @@ impl<'m> Follower<'m> {
         let mut modal = Modal::start(machine, chain);
         modal.for_program(dialect, src);
         let mut pos = crate::program::axes::Positions::default();
-        // An axis the program has not set stands where the control left it: not known.
-        pos.unknown = !0;
+        // An axis the program has not set stands where the control left it: not known,
+        // unless the machine file gives the set-up's start position.
+        pos.unknown = (1u32 << machine.variables(chain).len()) - 1;
+        for (v, &axis) in machine.variables(chain).iter().enumerate() {
+            if let Some(&(_, value)) = machine.start.iter().find(|(a, _)| *a == axis) {
+                pos.unknown &= !(1 << v);
+                pos.nominal[v] = value;
+            }
+        }
         Follower {
             machine,
             reader: Reader::new(machine),
@@ -124,6 +135,7 @@ impl<'m> Follower<'m> {
             Diagnostic::at(path, src, line.offset + offset, message)
         };
         let chain_before = self.modal.chain;
+        let every = |f: &Self| (1u32 << f.vars(f.modal.chain)) - 1;
         let tcp_before = self.modal.tcp;
         let plane_before = self.modal.working_plane;
         let moving =
@@ -131,14 +143,14 @@ impl<'m> Follower<'m> {
                 .read(line, &self.tokens, &mut self.modal, &at, &mut self.motion)?;
         if self.modal.chain != chain_before {
             // Another chain's axes stand where this program has not said.
-            self.pos.unknown = !0;
+            self.pos.unknown = every(self);
         }
         let n = self.reader.axes(self.modal.chain).len();
         let all = (1u32 << n) - 1;
         // The control's frame changed: where the axes stand in it is recomputed by the
         // control; the gate does not follow that.
         if self.modal.tcp != tcp_before || self.modal.working_plane != plane_before {
-            self.pos.unknown = !0;
+            self.pos.unknown = every(self);
             return Ok(Some(self.gap(GapKind::Unknown, line.number)));
         }
         if !moving {
@@ -152,7 +164,14 @@ impl<'m> Follower<'m> {
             Some(GapKind::Machine)
         } else if matches!(motion.kind, MoveKind::Cycle) {
             Some(GapKind::Cycle)
-        } else if self.modal.tcp {
+        } else if self.modal.tcp
+            && (self.modal.tcp_vector
+                || self.modal.working_plane.is_some()
+                || self.modal.shift != Some([0.0; 3])
+                || !matches!(motion.kind, MoveKind::Program))
+        {
+            // Vectors (the controller's rotary solution), planes, shifted zeros and arcs
+            // under TCP are not followed.
             Some(GapKind::Tcp)
         } else if self.modal.working_plane.is_some() || motion.kind == MoveKind::ToPlane {
             Some(GapKind::Plane)
@@ -166,7 +185,7 @@ impl<'m> Follower<'m> {
         if let Some(kind) = kind {
             if kind != GapKind::Machine {
                 // The gate does not know where these blocks leave the axes.
-                self.pos.unknown = !0;
+                self.pos.unknown = every(self);
             }
             return Ok(Some(self.gap(kind, line.number)));
         }
@@ -219,11 +238,12 @@ impl<'m> Follower<'m> {
                     chain: self.modal.chain,
                     shift: self.modal.shift.unwrap_or([0.0; 3]),
                     rapid: matches!(shape, Shape::Rapid),
+                    tcp: self.modal.tcp,
                 })))
             }
             Ok(None) => Ok(Some(self.gap(GapKind::Unknown, line.number))),
             Err(_) => {
-                self.pos.unknown = !0;
+                self.pos.unknown = every(self);
                 Ok(Some(self.gap(GapKind::Other, line.number)))
             }
         }

@@ -61,6 +61,7 @@ pub fn ac_trunnion(a_point: [f64; 3], c_point: [f64; 3]) -> Machine {
         inch_default: false,
         cycle_r_initial: false,
         block_delete: None,
+        start: Vec::new(),
         work_offsets: None,
     }
 }
@@ -90,6 +91,7 @@ pub fn head_head(pivot: f64) -> Machine {
         inch_default: false,
         cycle_r_initial: false,
         block_delete: None,
+        start: Vec::new(),
         work_offsets: None,
     }
 }
