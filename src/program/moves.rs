@@ -151,7 +151,9 @@ pub fn nominal_moves(
                 }
                 Some(_) => {}
             }
-            match follow(axes, &line, &tokens, &motion, &modal, &mut pos, &at, col) {
+            match follow(
+                axes, &line, &tokens, &motion, &modal, &mut pos, &at, col, false,
+            ) {
                 Ok(Some((start, end, shape))) => {
                     moves.push(NominalMove {
                         line: line.number,
@@ -194,6 +196,7 @@ pub(crate) fn follow(
     pos: &mut Positions,
     at: &dyn Fn(usize, String) -> Diagnostic,
     col: usize,
+    tcp_words: bool,
 ) -> Result<Option<(Option<[f64; MAX_AXES]>, [f64; MAX_AXES], Shape)>, Diagnostic> {
     let n = axes.len();
     let all = (1u32 << n) - 1;
@@ -217,7 +220,7 @@ pub(crate) fn follow(
                 "a drilling cycle cannot be followed: the controller decides its moves (expected the holes as G0/G1 moves)".into(),
             ));
         }
-        _ if modal.tcp => {
+        _ if modal.tcp && !tcp_words => {
             return Err(at(
                 col,
                 "a tool-centre-point block (G43.4/G43.5) cannot be followed: the controller solves its axis values (expected a program in machine axes)".into(),

@@ -222,7 +222,7 @@ const MAX_PIECES: usize = 8 * 1024;
 
 /// After a stretch the gate does not follow, at most this many written blocks are passed
 /// over before the written program must take up the original's path again.
-const RESYNC: usize = 64;
+const RESYNC: usize = MAX_PIECES + 64;
 
 /// Where a piece of an original move ends: the fraction and the deviation there.
 struct Landing {
@@ -346,12 +346,29 @@ impl<'m> Gate<'m> {
                 break;
             }
             verdict.states.push(skip);
-            let mut orig = lookahead(self.machine, start_chain, dialect, original, skip);
-            let mut out = lookahead(self.machine, start_chain, dialect, written, skip);
+            let mut orig = lookahead(self, start_chain, dialect, original, skip);
+            let mut out = lookahead(self, start_chain, dialect, written, skip);
             let state = state_words(skip, both);
             self.judge(&mut orig, &mut out, original, written, state, &mut verdict);
             // Read the original to its end: its refusals, and whether it has `/` blocks.
             while orig.take().is_some() {}
+            for (text, side, unreachable) in [
+                (original, "the original", orig.unreachable),
+                (written, "the written program", out.unreachable),
+            ] {
+                if let Some((line, angle)) = unreachable {
+                    verdict.findings.push(Diagnostic::at(
+                        text.name,
+                        text.src,
+                        line_offset(text.src, line),
+                        format!(
+                            "{side}'s tool vector here cannot be given by the machine's rotary axes{state}: the controller's solve ends {:.4}° from it (expected a direction the machine can reach)",
+                            angle.to_degrees()
+                        ),
+                    ));
+                    verdict.original_lines.push(0);
+                }
+            }
             if let Some(mut d) = orig.error {
                 if skip {
                     d.message = format!(
@@ -386,8 +403,8 @@ impl<'m> Gate<'m> {
     /// its words for messages).
     fn judge<O, W>(
         &self,
-        orig: &mut Lookahead<O>,
-        out: &mut Lookahead<W>,
+        orig: &mut Lookahead<'_, 'm, O>,
+        out: &mut Lookahead<'_, 'm, W>,
         original: Text<'_>,
         written: Text<'_>,
         state: &str,
@@ -510,20 +527,100 @@ impl<'m> Gate<'m> {
 
     /// The nominal pose at the end of original step `o`.
     fn nominal_end(&self, o: &Step) -> Pose {
-        let kin = self.kin(o.chain, o.shift);
-        kin.pose(Model::Nominal, &o.mv.end[..kin.len()], o.mv.tool_length)
-            .0
+        self.nominal_at(o, &o.mv.end)
     }
 
+    /// Turn a G43.5 step's tool vectors into the rotary values the controller solves for
+    /// them (its nominal inverse kinematics from where it last commanded the axes, `last`),
+    /// so that it is followed as a TCP move with rotary words; `last` becomes the axis
+    /// values it commands at the step's end. `Err` with the angle left where a vector
+    /// cannot be reached.
+    fn resolve(&self, step: &mut Step, last: &mut [f64; MAX_AXES]) -> Result<(), f64> {
+        let Some((v0, v1)) = step.vector.take() else {
+            *last = self.commanded(step, &step.mv.end);
+            return Ok(());
+        };
+        let kin = self.kin(step.chain, step.shift);
+        let n = kin.len();
+        let (chain, length) = (step.chain, step.mv.tool_length);
+        let mut worst = 0.0_f64;
+        let mut turn = |words: &mut [f64; MAX_AXES], v: [f64; 3], from: &[f64; MAX_AXES]| {
+            let target = Pose {
+                p: self.tip_at(chain, words),
+                o: nalgebra::Vector3::from(v),
+            };
+            let solution = kin.solve(
+                Model::Nominal,
+                &target,
+                &from[..n],
+                length,
+                0,
+                &SolveOptions::compensation(),
+            );
+            worst = worst.max(solution.direction_residual);
+            for k in (0..n).filter(|&k| kin.kind(k) == AxisKind::Rotary) {
+                words[k] = solution.q[k];
+            }
+            solution.q
+        };
+        if let Some(start) = step.mv.start.as_mut() {
+            *last = turn(start, v0, last);
+        }
+        *last = turn(&mut step.mv.end, v1, last);
+        if worst > 1e-6 { Err(worst) } else { Ok(()) }
+    }
+
+    /// The tool tip a TCP block's words `q` give (X, Y, Z in the part frame).
+    fn tip_words(&self, step: &Step, q: &[f64; MAX_AXES]) -> nalgebra::Vector3<f64> {
+        self.tip_at(step.chain, q)
+    }
+
+    fn tip_at(&self, chain: usize, q: &[f64; MAX_AXES]) -> nalgebra::Vector3<f64> {
+        let axes = crate::program::axes::Axes::of(self.machine, chain);
+        let at = |l: u8| axes.linear_of(l).map_or(0.0, |v| q[v]);
+        nalgebra::Vector3::new(at(b'X'), at(b'Y'), at(b'Z'))
+    }
+
+    /// The axis values the controller commands for words `q` of step `step`: the words
+    /// themselves in machine axes; under TCP its nominal inverse kinematics.
+    fn commanded(&self, step: &Step, q: &[f64; MAX_AXES]) -> [f64; MAX_AXES] {
+        if !step.tcp {
+            return *q;
+        }
+        let kin = self.kin(step.chain, step.shift);
+        let tip = self.tip_words(step, q);
+        kin.tcp_axes_with_rotaries(
+            &tip,
+            &q[..kin.len()],
+            step.mv.tool_length,
+            &SolveOptions::compensation(),
+        )
+        .q
+    }
+
+    /// The real machine where the control puts it for written words `q`.
     fn real_at(&self, w: &Step, q: &[f64; MAX_AXES]) -> Pose {
         let kin = self.kin(w.chain, w.shift);
-        kin.pose(Model::Actual, &q[..kin.len()], w.mv.tool_length).0
+        let axes = self.commanded(w, q);
+        kin.pose(Model::Actual, &axes[..kin.len()], w.mv.tool_length)
+            .0
     }
 
+    /// The nominal pose original words `q` mean: the nominal machine at them; under TCP
+    /// the tip they give, with the direction of their rotary values.
     fn nominal_at(&self, o: &Step, q: &[f64; MAX_AXES]) -> Pose {
         let kin = self.kin(o.chain, o.shift);
-        kin.pose(Model::Nominal, &q[..kin.len()], o.mv.tool_length)
-            .0
+        let pose = kin
+            .pose(Model::Nominal, &q[..kin.len()], o.mv.tool_length)
+            .0;
+        if o.tcp {
+            Pose {
+                p: self.tip_words(o, q),
+                o: pose.o,
+            }
+        } else {
+            pose
+        }
     }
 
     fn end_distance(&self, o: &Step, w: &Step) -> f64 {
@@ -728,17 +825,29 @@ impl<'m> Gate<'m> {
 /// quarter points, as the pass's own split check.
 const SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
 
-/// One item of look-ahead over a program's items; a refusal ends the items and is kept.
-struct Lookahead<I: Iterator<Item = Result<Item, Diagnostic>>> {
+/// One item of look-ahead over a program's items, each G43.5 move turned into rotary
+/// values as the controller turns it; a refusal ends the items and is kept.
+struct Lookahead<'g, 'm, I: Iterator<Item = Result<Item, Diagnostic>>> {
+    gate: &'g Gate<'m>,
     items: I,
     buf: Option<Item>,
     error: Option<Diagnostic>,
+    /// The axis values the controller last commanded (where its solve starts).
+    last: [f64; MAX_AXES],
+    /// The first block whose tool vector the machine cannot give: line, angle left (rad).
+    unreachable: Option<(usize, f64)>,
 }
 
-impl<I: Iterator<Item = Result<Item, Diagnostic>>> Lookahead<I> {
+impl<I: Iterator<Item = Result<Item, Diagnostic>>> Lookahead<'_, '_, I> {
     fn peek(&mut self) -> Option<&Item> {
         if self.buf.is_none() && self.error.is_none() {
             match self.items.next() {
+                Some(Ok(Item::Move(mut step))) => {
+                    if let Err(angle) = self.gate.resolve(&mut step, &mut self.last) {
+                        self.unreachable.get_or_insert((step.mv.line, angle));
+                    }
+                    self.buf = Some(Item::Move(step));
+                }
                 Some(Ok(item)) => self.buf = Some(item),
                 Some(Err(d)) => self.error = Some(d),
                 None => {}
@@ -754,17 +863,20 @@ impl<I: Iterator<Item = Result<Item, Diagnostic>>> Lookahead<I> {
 }
 
 /// The items of `text` with one item of look-ahead.
-fn lookahead<'m, 'a>(
-    machine: &'m Machine,
+fn lookahead<'g, 'm, 'a>(
+    gate: &'g Gate<'m>,
     chain: usize,
     dialect: Dialect,
     text: Text<'a>,
     skip: bool,
-) -> Lookahead<read::Items<'m, 'a, impl Iterator<Item = nc::Line<'a>> + use<'a>>> {
+) -> Lookahead<'g, 'm, read::Items<'m, 'a, impl Iterator<Item = nc::Line<'a>> + use<'a, 'm>>> {
     Lookahead {
-        items: read::items(machine, chain, dialect, text.src, text.name, skip),
+        gate,
+        items: read::items(gate.machine, chain, dialect, text.src, text.name, skip),
         buf: None,
         error: None,
+        last: [0.0; MAX_AXES],
+        unreachable: None,
     }
 }
 

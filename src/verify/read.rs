@@ -59,6 +59,9 @@ pub struct Step {
     /// tip in the part frame, and the controller solves the linear axes (nominal inverse
     /// kinematics) for every point of the tip and rotary values interpolated linearly.
     pub tcp: bool,
+    /// Under G43.5 (tool vectors): the direction words before and after the block
+    /// (normalised); the controller turns each into rotary values.
+    pub vector: Option<([f64; 3], [f64; 3])>,
 }
 
 /// What the gate reads of one block.
@@ -81,6 +84,8 @@ pub struct Follower<'m> {
     pub has_optional: bool,
     /// The last item was a gap: the next move's start is not judged.
     after_gap: bool,
+    /// The tool vector in force under G43.5 (normalised).
+    vector: [f64; 3],
 }
 
 impl<'m> Follower<'m> {
@@ -113,6 +118,7 @@ impl<'m> Follower<'m> {
             skip_optional,
             has_optional: false,
             after_gap: true,
+            vector: [0.0, 0.0, 1.0],
         }
     }
 
@@ -165,13 +171,11 @@ impl<'m> Follower<'m> {
         } else if matches!(motion.kind, MoveKind::Cycle) {
             Some(GapKind::Cycle)
         } else if self.modal.tcp
-            && (self.modal.tcp_vector
-                || self.modal.working_plane.is_some()
+            && (self.modal.working_plane.is_some()
                 || self.modal.shift != Some([0.0; 3])
                 || !matches!(motion.kind, MoveKind::Program))
         {
-            // Vectors (the controller's rotary solution), planes, shifted zeros and arcs
-            // under TCP are not followed.
+            // Planes, shifted zeros and arcs under TCP are not followed.
             Some(GapKind::Tcp)
         } else if self.modal.working_plane.is_some() || motion.kind == MoveKind::ToPlane {
             Some(GapKind::Plane)
@@ -198,6 +202,28 @@ impl<'m> Follower<'m> {
             .unwrap_or(0);
         let axes = self.reader.axes(self.modal.chain);
         let known_before = self.pos.unknown & all == 0;
+        let vector_before = self.vector;
+        if self.modal.tcp && self.modal.tcp_vector {
+            // The rotary axes follow the vector: the controller knows where they go.
+            for v in 0..n {
+                if !axes.is_linear(v) {
+                    self.pos.unknown &= !(1 << v);
+                }
+            }
+            let value = |k: usize| {
+                motion.arc_words[k].and_then(|i| match &self.tokens[i].kind {
+                    TokenKind::Word(w) => w.number(),
+                    _ => None,
+                })
+            };
+            if (0..3).any(|k| motion.arc_words[k].is_some()) {
+                let v = [0, 1, 2].map(|k| value(k).unwrap_or(0.0));
+                let norm = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                if norm > 0.0 && norm.is_finite() {
+                    self.vector = v.map(|x| x / norm);
+                }
+            }
+        }
         match follow(
             axes,
             line,
@@ -207,6 +233,7 @@ impl<'m> Follower<'m> {
             &mut self.pos,
             &at,
             col,
+            true,
         ) {
             Ok(Some((start, end, shape))) => {
                 let mut start = if self.after_gap || !known_before {
@@ -239,6 +266,8 @@ impl<'m> Follower<'m> {
                     shift: self.modal.shift.unwrap_or([0.0; 3]),
                     rapid: matches!(shape, Shape::Rapid),
                     tcp: self.modal.tcp,
+                    vector: (self.modal.tcp && self.modal.tcp_vector)
+                        .then_some((vector_before, self.vector)),
                 })))
             }
             Ok(None) => Ok(Some(self.gap(GapKind::Unknown, line.number))),
