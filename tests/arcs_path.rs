@@ -370,3 +370,43 @@ EYY = [10.0, -10.0]
     let worst = worst_off(&kin, program, &out, 0.0);
     assert!(worst < 1.5e-3, "{out}\n{} mm off the nominal arc", worst);
 }
+
+/// Issue 34, case 13: an arc modal in the original (no G2/G3 word) right after an arc
+/// replaced by straight pieces (written G1) must still run as an arc, in ISO and Sinumerik.
+/// The AC trunnion with a scale error of X and Y (arcs keep) and a bump in the
+/// straightness of X between X0 and X20 (the first arc cannot keep).
+#[test]
+fn an_arc_after_pieces_keeps_its_motion_code() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let m = nccomp::model::machine_file::load(&root.join("ac_trunnion.machine.toml")).unwrap();
+    let e = nccomp::model::error_file::parse(
+        r#"
+length_unit = "um"
+[motion.X]
+positions = [-400.0, 0.0, 10.0, 20.0, 400.0]
+EXX = [4.0, 0.0, -0.1, -0.2, -4.0]
+EZX = [0.0, 0.0, 3.0, 0.0, 0.0]
+[motion.Y]
+positions = [-400.0, 400.0]
+EYY = [4.0, -4.0]
+"#,
+        "bump.errors.toml",
+        &m,
+    )
+    .unwrap();
+    let kin = Kinematics::new(&m, &e, 0).unwrap();
+    let program = "G0 X0 Y0 Z20. A0 C0\nG1 Z-1. F500\nG2 X20. Y0 I10. J0\nX40. Y0 I10. J0\nX60. Y0 I10. J0\nG1 X70.\n";
+    for dialect in [nccomp::nc::Dialect::Iso, nccomp::nc::Dialect::Sinumerik] {
+        let options = Options {
+            dialect: Some(dialect),
+            ..Options::default()
+        };
+        let comp = Compensator::new(&m, &e, options).unwrap();
+        let mut out = Vec::new();
+        let summary = comp.run(program.as_bytes(), "modal.nc", &mut out).unwrap();
+        let out = String::from_utf8(out).unwrap();
+        assert!(summary.arcs >= 1 && summary.arcs_kept >= 1, "{out}");
+        let worst = worst_off(&kin, program, &out, m.tool.length);
+        assert!(worst < 1.5e-3, "{out}\n{} mm off the nominal path", worst);
+    }
+}

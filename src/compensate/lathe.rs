@@ -161,6 +161,10 @@ impl Compensator<'_> {
         if state.cycle.is_some() && state.modal.motion != Some(Motion::Cycle) {
             state.cycle = None;
         }
+        if state.modal.motion != Some(Motion::Arc) {
+            // The original left arc mode with a code the output keeps.
+            state.straightened = false;
+        }
         // A new plane, or a new tool length under one, moves the tip words.
         if (state.modal.working_plane, state.modal.length) != was_plane {
             self.passes[state.pass].enter_plane(state);

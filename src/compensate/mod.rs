@@ -203,6 +203,10 @@ struct State {
     /// The deviation the last block left at its end: the start of the next move's path
     /// check, known without evaluating it again.
     end: Option<EndDeviation>,
+    /// An arc was written as a straight move (G1) while the original stays in arc mode
+    /// (G2/G3): the next arc kept as an arc must carry its own G2/G3, modal in the
+    /// original or not.
+    straightened: bool,
 }
 
 /// The deviation the real machine has at the axis values `told` from the nominal pose at
@@ -422,6 +426,7 @@ impl<'m> Compensator<'m> {
             spare_texts: Vec::new(),
             pieces: Vec::new(),
             end: None,
+            straightened: false,
             zero: [0.0; 3],
             shifted: None,
         };

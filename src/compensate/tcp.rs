@@ -421,6 +421,7 @@ impl Mode for TcpMode {
         if self.tip_arc.is_some() {
             // The arc's own line is the last straight piece.
             super::arcs::straighten(cx, out, !self.pieces.is_empty());
+            state.straightened = true;
             out.summary.note_arc(cx.line.number, self.pieces.len());
         }
         // What the controller commands for what is written.
