@@ -89,3 +89,57 @@ fn a_tool_vector_the_rotary_axes_cannot_reach_is_refused() {
     let ok = iso.replace("I0 J0 K-1", "I0 J0 K1");
     run(&ok, "p.nc").unwrap();
 }
+
+/// Issue 34, case 14: after `G49` ends TCP the axes stand where the controller's solve of
+/// the last tip words put them; a G91 move travels from there (it was written from the
+/// last tip words, 15.8 mm short).
+#[test]
+fn an_increment_after_tcp_ends_travels_from_where_the_axes_stand() {
+    use nccomp::compensate::{Compensator, Options};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let m = nccomp::model::machine_file::load(&root.join("ac_trunnion.machine.toml")).unwrap();
+    let e = nccomp::model::error_file::load(&root.join("ac_trunnion.errors.toml"), &m).unwrap();
+    let kin = Kinematics::new(&m, &e, 0).unwrap();
+    let length = m.tool.lengths[&1];
+    let program = "G21 G90\nG43.4 H1\nG0 X-40. Y-30. Z30. A-20. C15.\nG49\nG91 G0 Z100.\n";
+    let mut out = Vec::new();
+    Compensator::new(&m, &e, Options::default())
+        .unwrap()
+        .run(program.as_bytes(), "p.nc", &mut out)
+        .unwrap();
+    let out = String::from_utf8(out).unwrap();
+    let words = |line: &str| -> Vec<(usize, f64)> {
+        line.split_whitespace()
+            .filter_map(|w| {
+                let k = "XYZAC".find(&w[..1])?;
+                Some((k, w[1..].parse().ok()?))
+            })
+            .collect()
+    };
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), 5, "{out}");
+    let opts = SolveOptions::default();
+    // The controller: a line's tip words and rotary words, solved nominally.
+    let tcp_solve = |line: &str| {
+        let mut w = [0.0; 5];
+        for (k, v) in words(line) {
+            w[k] = v;
+        }
+        let tip = nalgebra::Vector3::new(w[0], w[1], w[2]);
+        let sol = kin.tcp_axes_with_rotaries(&tip, &[w[0], w[1], w[2], w[3], w[4]], length, &opts);
+        let q: [f64; 5] = sol.q[..5].try_into().unwrap();
+        q
+    };
+    let nominal_start = tcp_solve(program.lines().nth(2).unwrap());
+    let mut nominal_end = nominal_start;
+    nominal_end[2] += 100.0;
+    let mut reached = tcp_solve(lines[2]);
+    for (k, v) in words(lines[4]) {
+        reached[k] += v;
+    }
+    // G49 leaves the tool length of H1 in this model (the reference tool's is the same).
+    let target = kin.pose(Model::Nominal, &nominal_end, length).0.p;
+    let real = kin.pose(Model::Actual, &reached, length).0.p;
+    let off = (real - target).norm();
+    assert!(off < 1e-3, "{out}\n{off} mm off");
+}

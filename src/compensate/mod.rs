@@ -28,7 +28,7 @@ use crate::model::{AxisKind, ErrorModel, Machine};
 use crate::nc;
 use crate::nc::number::decimals_for;
 use crate::program::axes::{Axes, Positions};
-use crate::program::exact::{Position, Unit};
+use crate::program::exact::{self, Position, Unit};
 use crate::program::{INCH, Modal, Reader};
 use stream::Run;
 
@@ -278,17 +278,16 @@ impl<'m> Compensator<'m> {
         };
         let base = &self.passes[state.pass];
         if shift != state.zero {
-            // The axes stay where they are: their program coordinates change.
+            // The axes stay where they are: their program coordinates change, the exact
+            // ones too (a G91 word after the change travels from where the axes stand).
             for (c, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
                 if let Some(v) = base.tip_var(letter) {
                     let d = state.zero[c] - shift[c];
+                    let units = exact::from_f64(state.zero[c]) - exact::from_f64(shift[c]);
                     state.pos.nominal[v] += d;
+                    state.pos.exact[v] = state.pos.exact[v].add(units);
                     state.emitted[v] += d;
-                    state.written[v] = Position::Decimal {
-                        value: state.emitted[v],
-                        decimals: state.decimals[v],
-                        unit: Unit::MM,
-                    };
+                    state.written[v] = state.written[v].add(units);
                 }
             }
             state.zero = shift;
