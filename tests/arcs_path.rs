@@ -371,6 +371,67 @@ EYY = [10.0, -10.0]
     assert!(worst < 1.5e-3, "{out}\n{} mm off the nominal arc", worst);
 }
 
+/// Issue 34, case 1, with R: near a half circle the side of the chord the control puts the
+/// centre on (and so the way round) hangs on the last digits of R and the ends. Whatever
+/// is written must run, as the control reads it, on the nominal arc.
+#[test]
+fn a_half_circle_by_radius_is_never_written_the_other_way_round() {
+    let machine = nccomp::model::machine_file::parse(
+        r#"
+workpiece_chain = ["Y", "X"]
+tool_chain = ["Z"]
+resolution = { linear = 0.001, rotary = 0.001 }
+[axes.X]
+kind = "linear"
+direction = [-1, 0, 0]
+[axes.Y]
+kind = "linear"
+direction = [0, -1, 0]
+[axes.Z]
+kind = "linear"
+direction = [0, 0, 1]
+"#,
+        "three.machine.toml",
+    )
+    .unwrap();
+    let kin_errors = |scale: f64| {
+        nccomp::model::error_file::parse(
+            &format!(
+                "length_unit = \"um\"\n[motion.X]\npositions = [-1000.0, 1000.0]\nEXX = [{a}, {b}]\n[motion.Y]\npositions = [-1000.0, 1000.0]\nEYY = [{b}, {a}]\n",
+                a = 10.0 * scale,
+                b = -10.0 * scale
+            ),
+            "three.errors.toml",
+            &machine,
+        )
+        .unwrap()
+    };
+    let mut wrong = Vec::new();
+    for scale in [1.0, -1.0, 0.3, -2.0] {
+        let errors = kin_errors(scale);
+        let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+        let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+        for (start, end, r) in [
+            ("X120. Y140.", "X140. Y140.", "R10."),
+            ("X120. Y140.", "X140.001 Y140.", "R10.0005"),
+            ("X-30. Y25.", "X-10. Y25.", "R-10."),
+            ("X50. Y-60.", "X50. Y-40.", "R10."),
+        ] {
+            for code in ["G2", "G3"] {
+                let program = format!("G90 G17 G21\nG0 {start} Z40.\n{code} {end} {r} F250\n");
+                let mut out = Vec::new();
+                comp.run(program.as_bytes(), "half.nc", &mut out).unwrap();
+                let out = String::from_utf8(out).unwrap();
+                let worst = worst_off(&kin, &program, &out, 0.0);
+                if worst >= 1.5e-3 {
+                    wrong.push(format!("{out}{worst} mm off"));
+                }
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
 /// Issue 34, case 13: an arc modal in the original (no G2/G3 word) right after an arc
 /// replaced by straight pieces (written G1) must still run as an arc, in ISO and Sinumerik.
 /// The AC trunnion with a scale error of X and Y (arcs keep) and a bump in the
