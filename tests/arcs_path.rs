@@ -287,3 +287,187 @@ fn kept_and_replaced_arcs_stay_on_the_nominal_arc() {
     assert!(gentle.kept >= 12, "{} of 18 kept", gentle.kept);
     assert!(rough.replaced > 0);
 }
+
+/// The written program of `program` run by this file's controller on the machine with its
+/// errors, against the nominal path of `program` (its moves after the first, sampled
+/// densely): the largest distance (mm) of the real tip from the nominal path.
+fn worst_off(kin: &Kinematics, program: &str, out: &str, length: f64) -> f64 {
+    let n = kin.len();
+    let nominal = controller(program);
+    let mut curve: Vec<Vector3<f64>> = Vec::new();
+    for m in &nominal[1..] {
+        let samples = if m.arc.is_some() { 3000 } else { 300 };
+        for k in 0..=samples {
+            let q = m.point(k as f64 / samples as f64);
+            curve.push(kin.pose(Model::Nominal, &q[..n], length).0.p);
+        }
+    }
+    let written = controller(out);
+    let mut worst: f64 = 0.0;
+    for m in &written[1..] {
+        for k in 0..=64 {
+            let q = m.point(k as f64 / 64.0);
+            let p = kin.pose(Model::Actual, &q[..n], length).0.p;
+            // Search the whole curve: a mirrored arc wanders far from its hint.
+            let mut best = f64::INFINITY;
+            for j in 0..curve.len() - 1 {
+                let (a, b) = (curve[j], curve[j + 1]);
+                let d = b - a;
+                let t = ((p - a).dot(&d) / d.norm_squared().max(1e-300)).clamp(0.0, 1.0);
+                best = best.min((p - (a + d * t)).norm());
+            }
+            worst = worst.max(best);
+        }
+    }
+    worst
+}
+
+/// Issue 34, case 1: a short arc whose sagitta is below the words' rounding. Kept as an
+/// arc with centre words fitted to the compensated ends, the centre could land across the
+/// chord, and G3 about it runs nearly a full circle. Whatever is written must run, as the
+/// control reads it (G3's sweep in (0, 2π]), on the nominal arc.
+#[test]
+fn a_short_arc_is_never_written_mirrored() {
+    let machine = nccomp::model::machine_file::parse(
+        r#"
+workpiece_chain = ["Y", "X"]
+tool_chain = ["Z"]
+resolution = { linear = 0.001, rotary = 0.001 }
+[axes.X]
+kind = "linear"
+direction = [-1, 0, 0]
+[axes.Y]
+kind = "linear"
+direction = [0, -1, 0]
+[axes.Z]
+kind = "linear"
+direction = [0, 0, 1]
+"#,
+        "three.machine.toml",
+    )
+    .unwrap();
+    let errors = nccomp::model::error_file::parse(
+        r#"
+length_unit = "um"
+[motion.X]
+positions = [-1000.0, 1000.0]
+EXX = [10.0, -10.0]
+[motion.Y]
+positions = [-1000.0, 1000.0]
+EYY = [10.0, -10.0]
+"#,
+        "three.errors.toml",
+        &machine,
+    )
+    .unwrap();
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let program =
+        "G90 G17 G21\nG0 X122.439 Y143.682 Z40.\nG3 X122.223 Y143.75 I-5.24 J-16.476 F250\n";
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let mut out = Vec::new();
+    comp.run(program.as_bytes(), "short.nc", &mut out).unwrap();
+    let out = String::from_utf8(out).unwrap();
+    let worst = worst_off(&kin, program, &out, 0.0);
+    assert!(worst < 1.5e-3, "{out}\n{} mm off the nominal arc", worst);
+}
+
+/// Issue 34, case 1, with R: near a half circle the side of the chord the control puts the
+/// centre on (and so the way round) hangs on the last digits of R and the ends. Whatever
+/// is written must run, as the control reads it, on the nominal arc.
+#[test]
+fn a_half_circle_by_radius_is_never_written_the_other_way_round() {
+    let machine = nccomp::model::machine_file::parse(
+        r#"
+workpiece_chain = ["Y", "X"]
+tool_chain = ["Z"]
+resolution = { linear = 0.001, rotary = 0.001 }
+[axes.X]
+kind = "linear"
+direction = [-1, 0, 0]
+[axes.Y]
+kind = "linear"
+direction = [0, -1, 0]
+[axes.Z]
+kind = "linear"
+direction = [0, 0, 1]
+"#,
+        "three.machine.toml",
+    )
+    .unwrap();
+    let kin_errors = |scale: f64| {
+        nccomp::model::error_file::parse(
+            &format!(
+                "length_unit = \"um\"\n[motion.X]\npositions = [-1000.0, 1000.0]\nEXX = [{a}, {b}]\n[motion.Y]\npositions = [-1000.0, 1000.0]\nEYY = [{b}, {a}]\n",
+                a = 10.0 * scale,
+                b = -10.0 * scale
+            ),
+            "three.errors.toml",
+            &machine,
+        )
+        .unwrap()
+    };
+    let mut wrong = Vec::new();
+    for scale in [1.0, -1.0, 0.3, -2.0] {
+        let errors = kin_errors(scale);
+        let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+        let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+        for (start, end, r) in [
+            ("X120. Y140.", "X140. Y140.", "R10."),
+            ("X120. Y140.", "X140.001 Y140.", "R10.0005"),
+            ("X-30. Y25.", "X-10. Y25.", "R-10."),
+            ("X50. Y-60.", "X50. Y-40.", "R10."),
+        ] {
+            for code in ["G2", "G3"] {
+                let program = format!("G90 G17 G21\nG0 {start} Z40.\n{code} {end} {r} F250\n");
+                let mut out = Vec::new();
+                comp.run(program.as_bytes(), "half.nc", &mut out).unwrap();
+                let out = String::from_utf8(out).unwrap();
+                let worst = worst_off(&kin, &program, &out, 0.0);
+                if worst >= 1.5e-3 {
+                    wrong.push(format!("{out}{worst} mm off"));
+                }
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+/// Issue 34, case 13: an arc modal in the original (no G2/G3 word) right after an arc
+/// replaced by straight pieces (written G1) must still run as an arc, in ISO and Sinumerik.
+/// The AC trunnion with a scale error of X and Y (arcs keep) and a bump in the
+/// straightness of X between X0 and X20 (the first arc cannot keep).
+#[test]
+fn an_arc_after_pieces_keeps_its_motion_code() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let m = nccomp::model::machine_file::load(&root.join("ac_trunnion.machine.toml")).unwrap();
+    let e = nccomp::model::error_file::parse(
+        r#"
+length_unit = "um"
+[motion.X]
+positions = [-400.0, 0.0, 10.0, 20.0, 400.0]
+EXX = [4.0, 0.0, -0.1, -0.2, -4.0]
+EZX = [0.0, 0.0, 3.0, 0.0, 0.0]
+[motion.Y]
+positions = [-400.0, 400.0]
+EYY = [4.0, -4.0]
+"#,
+        "bump.errors.toml",
+        &m,
+    )
+    .unwrap();
+    let kin = Kinematics::new(&m, &e, 0).unwrap();
+    let program = "G0 X0 Y0 Z20. A0 C0\nG1 Z-1. F500\nG2 X20. Y0 I10. J0\nX40. Y0 I10. J0\nX60. Y0 I10. J0\nG1 X70.\n";
+    for dialect in [nccomp::nc::Dialect::Iso, nccomp::nc::Dialect::Sinumerik] {
+        let options = Options {
+            dialect: Some(dialect),
+            ..Options::default()
+        };
+        let comp = Compensator::new(&m, &e, options).unwrap();
+        let mut out = Vec::new();
+        let summary = comp.run(program.as_bytes(), "modal.nc", &mut out).unwrap();
+        let out = String::from_utf8(out).unwrap();
+        assert!(summary.arcs >= 1 && summary.arcs_kept >= 1, "{out}");
+        let worst = worst_off(&kin, program, &out, m.tool.length);
+        assert!(worst < 1.5e-3, "{out}\n{} mm off the nominal path", worst);
+    }
+}

@@ -168,3 +168,31 @@ fn rotations_nccomp_does_not_follow_are_refused() {
         assert!(err.contains(at), "{what}: {err}");
     }
 }
+
+/// Issue 34, case 14: after G69 the axes stand where the rotation put them; a G91 word
+/// travels from there (not from the last words before the rotation ended).
+#[test]
+fn an_increment_after_g69_travels_from_where_the_axes_stand() {
+    let (machine, errors) = setup();
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let program = "G21 G90 G17\nG0 X0 Y0 Z10\nG68 X0 Y0 R90\nG0 X10 Y5\nG69\nG91 G0 X5\n";
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let mut out = Vec::new();
+    comp.run(program.as_bytes(), "rot.nc", &mut out).unwrap();
+    let written = String::from_utf8(out).unwrap();
+    let lines: Vec<&str> = written.lines().collect();
+    assert_eq!(lines.len(), 6, "{written}");
+    // The written G90 part as the controller rotates it, then the increments added.
+    let head = lines[..5].join("\n");
+    let mut at = commanded(&head)[3].unwrap();
+    for word in lines[5].split_whitespace() {
+        if let Some(k) = "XYZ".find(&word[..1]) {
+            at[k] += word[1..].parse::<f64>().unwrap();
+        }
+    }
+    // The rotation put the axes at X-5 Y10: the increment takes X to 0.
+    let target = kin.pose(Model::Nominal, &[0.0, 10.0, 10.0], 0.0).0.p;
+    let reached = kin.pose(Model::Actual, &at, 0.0).0.p;
+    let off = (reached - target).norm();
+    assert!(off < 1e-3, "{written}\n{off} mm off");
+}

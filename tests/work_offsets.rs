@@ -243,3 +243,84 @@ fn offsets_whose_values_are_not_known_are_refused_where_a_block_moves() {
         "{err}"
     );
 }
+
+/// The written program's machine axes [X, Y, Z, C, A] (geometry zero G54) after each line
+/// that moves, read as a control reads it: G90 words in the active offset (G54 or G57 of
+/// `table`), G91 words a travel from where the axes stand, whatever offset is active.
+fn run_words(program: &str, table: &BTreeMap<u32, [f64; 3]>) -> Vec<[f64; 5]> {
+    let mut q = [0.0; 5];
+    let (mut incremental, mut active) = (false, 54u32);
+    let mut ends = Vec::new();
+    for line in program.lines() {
+        let mut given: Vec<(usize, f64)> = Vec::new();
+        for w in line.split_whitespace() {
+            let (letter, value) = (w.as_bytes()[0], &w[1..]);
+            let Ok(v) = value.parse::<f64>() else {
+                continue;
+            };
+            match letter {
+                b'G' if v == 90.0 => incremental = false,
+                b'G' if v == 91.0 => incremental = true,
+                b'G' if (54.0..=59.0).contains(&v) => active = v as u32,
+                b'X' | b'Y' | b'Z' | b'C' | b'A' => {
+                    given.push((b"XYZCA".iter().position(|&l| l == letter).unwrap(), v))
+                }
+                _ => {}
+            }
+        }
+        if given.is_empty() {
+            continue;
+        }
+        for (k, v) in given {
+            if incremental {
+                q[k] += v;
+            } else {
+                q[k] = v + if k < 3 {
+                    table[&active][k] - table[&54][k]
+                } else {
+                    0.0
+                };
+            }
+        }
+        ends.push(q);
+    }
+    ends
+}
+
+/// Issue 34, case 14: in G91 a switch of work offset moves nothing; the increments after
+/// it are travels from where the axes stand (they were written from the old offset's
+/// position, 360 mm off).
+#[test]
+fn an_increment_after_a_work_offset_change_travels_from_where_the_axes_stand() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let text = std::fs::read_to_string(root.join("head_head.machine.toml")).unwrap()
+        + "\n[work_offsets]\ngeometry = \"G54\"\nG54 = { X = -300.0, Y = -180.0, Z = -400.0 }\nG57 = { X = 60.0, Y = -180.0, Z = -410.0 }\n";
+    let machine = machine_file::parse(&text, "head_head_g57.machine.toml").unwrap();
+    let errors = std::fs::read_to_string(root.join("head_head.errors.toml")).unwrap() + MOTIONS;
+    let errors = error_file::parse(&errors, "head_head_g57.errors.toml", &machine).unwrap();
+    let table: BTreeMap<u32, [f64; 3]> =
+        [(54, [-300.0, -180.0, -400.0]), (57, [60.0, -180.0, -410.0])]
+            .into_iter()
+            .collect();
+    let program = "G21 G90\nG54 G0 X0 Y0 Z100. C0 A0\nG91\nG57 G0 Z50.\nX10. Y10.\n";
+    let written = compensate(&machine, &errors, program).unwrap();
+    let written = written.split("\n----\n").nth(1).unwrap();
+    let nominal = run_words(program, &table);
+    let real = run_words(written, &table);
+    assert_eq!(nominal.len(), real.len(), "{written}");
+    assert_eq!(nominal[2], [10.0, 10.0, 150.0, 0.0, 0.0]);
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let vars = |q: [f64; 5]| -> Vec<f64> {
+        kin.axes()
+            .iter()
+            .map(|&i| q["XYZCA".find(machine.axes[i].name.as_str()).unwrap()])
+            .collect()
+    };
+    let l = machine.tool.length;
+    for (target, reached) in nominal.iter().zip(&real) {
+        let target_p = kin.pose(Model::Nominal, &vars(*target), l).0.p;
+        let reached_p = kin.pose(Model::Actual, &vars(*reached), l).0.p;
+        let off = (reached_p - target_p).norm();
+        assert!(off < 1e-3, "{written}\n{target:?}: {off} mm off");
+    }
+}

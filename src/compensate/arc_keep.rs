@@ -160,9 +160,32 @@ impl Pass<'_> {
             }
             (origin.0 + written[0], origin.1 + written[1])
         };
-        let controller = ArcPath::through(nominal, written_centre, start, end);
-
+        // The arc the control runs: from the written start and end about the written
+        // centre, the way G2/G3 turns (not the sweep nearest the nominal one: a centre
+        // fitted across the chord makes a G3 of a short arc nearly a full circle).
+        let clockwise = nominal.sweep < 0.0;
+        let controller = ArcPath::commanded(nominal, written_centre, start, end, clockwise);
         if (controller.sweep - nominal.sweep).abs() > 0.1 {
+            return None;
+        }
+        // Where the written ends lie within their rounding of the same angle about the
+        // centre (a sweep near 0 or a full turn), which way round the control goes hangs
+        // on the last digit: not kept.
+        // Half a unit of the last written digit: the end words' (in the axes' units) and
+        // the centre words' (never diameters).
+        let half_unit = |unit: Unit, d: u8| 0.5 * unit.to_mm(10f64.powi(-i32::from(d)));
+        let rounding = [nominal.va, nominal.vb]
+            .iter()
+            .map(|&v| {
+                let unit = self.unit(v, &state.modal);
+                let d = state.decimals[v].max(self.res_decimals(v, unit));
+                half_unit(unit, d) + half_unit(centre_unit, self.res_decimals(v, centre_unit))
+            })
+            .fold(0.0f64, f64::max)
+            * std::f64::consts::SQRT_2
+            * 2.0;
+        let margin = rounding / controller.r0.min(controller.r1).max(1e-9);
+        if !full && (controller.sweep.abs() <= margin || controller.sweep.abs() >= TAU - margin) {
             return None;
         }
         // The controller's arc against the nominal one, at the quarter points and between:

@@ -209,12 +209,19 @@ impl Mode for ArcMode {
                 }
             }
             pass.centre_edits(cx, centre_words, out);
+            if cx.motion.arc_code.is_none() && state.straightened {
+                // Modal in the original, but the output's last motion code is the G1 of a
+                // straightened arc: the block says G2/G3 itself.
+                restore_arc_code(cx, out, self.clockwise);
+            }
+            state.straightened = false;
             out.summary.note_arc_kept();
             return Ok(());
         }
         // The arc's own line: G1, no centre words, its end compensated.
         let pieces = self.pieces;
         straighten(cx, out, pieces > 1);
+        state.straightened = true;
         let mut editor = cx.editor(out.edits);
         if state.modal.inverse_time
             && let Some(f) = cx.word(b'F')
@@ -260,6 +267,25 @@ pub(super) fn straighten(cx: &Cx<'_, '_>, out: &mut Out<'_>, pieces_inserted: bo
     gcode::make_linear(&mut editor, cx.motion.arc_code, first);
     for i in cx.motion.arc_words.iter().flatten() {
         editor.remove_word(*i);
+    }
+}
+
+/// Give a kept arc modal in the original its G2/G3 (`clockwise`: G2) before its first
+/// axis word.
+fn restore_arc_code(cx: &Cx<'_, '_>, out: &mut Out<'_>, clockwise: bool) {
+    let first = cx
+        .motion
+        .axis_words
+        .iter()
+        .chain(&cx.motion.arc_words)
+        .flatten()
+        .copied()
+        .min_by_key(|&i| cx.col(i));
+    if let Some(first) = first {
+        let mut editor = cx.editor(out.edits);
+        let style = editor.style();
+        let code = style.word(b'G', if clockwise { "2" } else { "3" });
+        editor.insert_before_word(first, &(code + style.separator));
     }
 }
 

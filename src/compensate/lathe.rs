@@ -19,7 +19,7 @@
 use super::{Compensator, State};
 use crate::diag::Diagnostic;
 use crate::nc::{self, Token};
-use crate::program::exact::{Position, Unit};
+use crate::program::exact::{self, Position, Unit};
 use crate::program::{BlockMotion, Motion, Spindle, WorkingPlane};
 
 /// What the program last told one machine axis, kept while its tool chain is not active.
@@ -164,6 +164,20 @@ impl Compensator<'_> {
     ) -> Result<(), Diagnostic> {
         if state.cycle.is_some() && state.modal.motion != Some(Motion::Cycle) {
             state.cycle = None;
+        }
+        if state.modal.motion != Some(Motion::Arc) {
+            // The original left arc mode with a code the output keeps.
+            state.straightened = false;
+        }
+        // TCP or a tilted working plane ended: the axes stand where the controller's solve
+        // of the tip words put them, and an increment (G91) travels from there, not from
+        // the last axis words.
+        let left_tcp = was_tcp.is_some() && !state.modal.tcp;
+        let left_plane = was_plane.0.is_some() && state.modal.working_plane.is_none();
+        if left_tcp || left_plane {
+            for v in 0..self.passes[state.pass].kin.len() {
+                state.pos.exact[v] = Position::Units(exact::from_f64(state.pos.nominal[v]));
+            }
         }
         // A new plane, or a new tool length under one, moves the tip words.
         if (state.modal.working_plane, state.modal.length) != was_plane {

@@ -28,7 +28,7 @@ use crate::model::{AxisKind, ErrorModel, Machine};
 use crate::nc;
 use crate::nc::number::decimals_for;
 use crate::program::axes::{Axes, Positions};
-use crate::program::exact::{Position, Unit};
+use crate::program::exact::{self, Position, Unit};
 use crate::program::{INCH, Modal, Reader};
 use stream::Run;
 
@@ -213,6 +213,10 @@ struct State {
     /// The deviation the last block left at its end: the start of the next move's path
     /// check, known without evaluating it again.
     end: Option<EndDeviation>,
+    /// An arc was written as a straight move (G1) while the original stays in arc mode
+    /// (G2/G3): the next arc kept as an arc must carry its own G2/G3, modal in the
+    /// original or not.
+    straightened: bool,
 }
 
 /// The deviation the real machine has at the axis values `told` from the nominal pose at
@@ -284,17 +288,16 @@ impl<'m> Compensator<'m> {
         };
         let base = &self.passes[state.pass];
         if shift != state.zero {
-            // The axes stay where they are: their program coordinates change.
+            // The axes stay where they are: their program coordinates change, the exact
+            // ones too (a G91 word after the change travels from where the axes stand).
             for (c, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
                 if let Some(v) = base.tip_var(letter) {
                     let d = state.zero[c] - shift[c];
+                    let units = exact::from_f64(state.zero[c]) - exact::from_f64(shift[c]);
                     state.pos.nominal[v] += d;
+                    state.pos.exact[v] = state.pos.exact[v].add(units);
                     state.emitted[v] += d;
-                    state.written[v] = Position::Decimal {
-                        value: state.emitted[v],
-                        decimals: state.decimals[v],
-                        unit: Unit::MM,
-                    };
+                    state.written[v] = state.written[v].add(units);
                 }
             }
             state.zero = shift;
@@ -533,6 +536,7 @@ impl<'m> Compensator<'m> {
             spare_texts: Vec::new(),
             pieces: Vec::new(),
             end: None,
+            straightened: false,
             zero: [0.0; 3],
             shifted: None,
         };

@@ -41,6 +41,11 @@ use std::fmt::Write;
 const CHORD: f64 = 0.0005;
 /// More pieces than this for one arc means a radius or a tolerance that makes no sense.
 const MAX_ARC_PIECES: usize = 100_000;
+/// The angle (rad) by which the direction the controller's solve reaches may differ from a
+/// programmed tool vector: the solve holds an axis only within 10⁻⁷ rad of it, so anything
+/// beyond is a vector the rotary axes cannot give.
+const UNREACHED_VECTOR: f64 = 1e-5;
+
 /// Decimals of a tool vector's components, at most.
 const MAX_VECTOR_DECIMALS: u8 = 10;
 
@@ -263,8 +268,23 @@ impl Mode for TcpMode {
                 p: tip,
                 o: v / self.scale,
             };
-            pass.controller_ik(&target, &state.pos.nominal, state.modal.length)
-                .ok_or_else(|| cx.refuse(first, "the nominal machine cannot reach this tip and tool vector from the previous axis positions (no inverse-kinematics solution near them)".into()))?
+            let q = pass.controller_ik(&target, &state.pos.nominal, state.modal.length)
+                .ok_or_else(|| cx.refuse(first, "the nominal machine cannot reach this tip and tool vector from the previous axis positions (no inverse-kinematics solution near them)".into()))?;
+            // The solve holds a rotary axis the target direction lies along: the direction
+            // it reaches is then the axis's, which may be the opposite of the vector's
+            // (a tool pointing away from the spindle on a trunnion). Never written flipped.
+            let (reached, _) = pass.kin.pose(Model::Nominal, &q[..n], state.modal.length);
+            let off = angle_between(&reached.o, &target.o);
+            if off.is_nan() || off > UNREACHED_VECTOR {
+                return Err(cx.refuse(
+                    first,
+                    format!(
+                        "the tool vector cannot be reached by the machine's rotary axes: the controller's solve ends {:.4}° from it (expected a direction the rotary axes can give)",
+                        off.to_degrees()
+                    ),
+                ));
+            }
+            q
         } else {
             let sol = pass.kin.tcp_axes_with_rotaries(
                 &tip,
@@ -421,6 +441,7 @@ impl Mode for TcpMode {
         if self.tip_arc.is_some() {
             // The arc's own line is the last straight piece.
             super::arcs::straighten(cx, out, !self.pieces.is_empty());
+            state.straightened = true;
             out.summary.note_arc(cx.line.number, self.pieces.len());
         }
         // What the controller commands for what is written.

@@ -66,6 +66,41 @@ impl ArcPath {
     }
 }
 
+impl ArcPath {
+    /// The arc a control runs from `start` to `end` about `centre` in the plane of `like`,
+    /// turning the way G2 (`clockwise`) or G3 commands: a sweep in [-2π, 0) for G2, in
+    /// (0, 2π] for G3, ends at the same angle making a full circle (as [`circle`]).
+    pub fn commanded(
+        like: &ArcPath,
+        centre: (f64, f64),
+        start: [f64; MAX_AXES],
+        end: [f64; MAX_AXES],
+        clockwise: bool,
+    ) -> ArcPath {
+        let (va, vb) = (like.va, like.vb);
+        let th0 = (start[vb] - centre.1).atan2(start[va] - centre.0);
+        let th1 = (end[vb] - centre.1).atan2(end[va] - centre.0);
+        let sweep = if clockwise {
+            let s = -(th0 - th1).rem_euclid(TAU);
+            if s == 0.0 { -TAU } else { s }
+        } else {
+            let s = (th1 - th0).rem_euclid(TAU);
+            if s == 0.0 { TAU } else { s }
+        };
+        ArcPath {
+            va,
+            vb,
+            centre,
+            r0: ((start[va] - centre.0).powi(2) + (start[vb] - centre.1).powi(2)).sqrt(),
+            r1: ((end[va] - centre.0).powi(2) + (end[vb] - centre.1).powi(2)).sqrt(),
+            th0,
+            sweep,
+            start,
+            end,
+        }
+    }
+}
+
 /// The plane's two axes (as program letters, first and second) and the letters of the
 /// centre words along them, for modal plane 0 (G17), 1 (G18), 2 (G19).
 pub fn plane_letters(plane: u8) -> Option<([u8; 2], [u8; 2])> {
