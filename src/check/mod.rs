@@ -405,6 +405,18 @@ impl<'m> Checker<'m> {
     /// so one bad file never stops the others).
     pub fn file(&self, path: &Path) -> ProgramCheck {
         let name = path.display().to_string();
+        // A pattern's match may be a FIFO or a socket: reading one would wait forever.
+        #[cfg(unix)]
+        if let Ok(meta) = std::fs::metadata(path) {
+            use std::os::unix::fs::FileTypeExt;
+            let t = meta.file_type();
+            if t.is_fifo() || t.is_socket() {
+                let message = format!(
+                    "{name}: not a regular file (a FIFO or a socket): expected an NC program file"
+                );
+                return ProgramCheck::unusable(&name, &Error::Usage(message));
+            }
+        }
         let check = || match std::fs::read(path) {
             Ok(src) => self.program(&src, &name),
             Err(e) => ProgramCheck::unusable(&name, &Error::io(path, e)),
