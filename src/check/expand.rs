@@ -93,9 +93,7 @@ fn non_utf8_matches(pattern: &str) -> Vec<PathBuf> {
         for entry in listing.flatten() {
             let path = dir.join(entry.file_name());
             let is_dir = entry.file_type().is_ok_and(|t| t.is_dir());
-            if path.to_str().is_none()
-                && matcher.matches_with(&path.to_string_lossy(), options)
-            {
+            if path.to_str().is_none() && matcher.matches_with(&path.to_string_lossy(), options) {
                 found.push(path.clone());
             }
             if is_dir {

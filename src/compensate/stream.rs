@@ -334,7 +334,7 @@ fn renumber(line: &nc::Line<'_>, tokens: &[Token], edits: &mut Vec<Edit>, shift:
     let inserted: usize = edits
         .iter()
         .filter(|e| e.at == (0..0))
-        .flat_map(|e| e.text.split(|&b| b == b'\n'))
+        .flat_map(|e| e.text.split(|&b| b == b'\n' || b == b'\r'))
         .filter(|l| {
             let l = l.trim_ascii_start();
             let l = l.strip_prefix(b"/").unwrap_or(l);
@@ -403,6 +403,7 @@ fn copy_through(
 ) -> crate::Result<Summary> {
     let mut buf = vec![0u8; CHUNK];
     let (mut lines, mut last) = (0usize, b'\n');
+    // A `\r` ends a line unless a `\n` follows it, perhaps in the next read.
     loop {
         let k = match input.read(&mut buf) {
             Ok(0) => break,
@@ -415,7 +416,10 @@ fn copy_through(
                 });
             }
         };
-        lines += memchr::memchr_iter(b'\n', &buf[..k]).count();
+        lines += nc::line_ends(&buf[..k]);
+        if last == b'\r' && buf[0] == b'\n' {
+            lines -= 1;
+        }
         last = buf[k - 1];
         output.write_all(&buf[..k]).map_err(|source| Error::Io {
             path: output_name.to_string(),
@@ -429,7 +433,7 @@ fn copy_through(
     // A last line without its ending counts too.
     Ok(Summary {
         zero_model: true,
-        lines: lines + usize::from(last != b'\n'),
+        lines: lines + usize::from(last != b'\n' && last != b'\r'),
         ..Summary::default()
     })
 }
@@ -467,7 +471,7 @@ impl<R: Read> Chunks<R> {
 
     /// Hand out the last chunk again at the next [`Chunks::next`].
     fn unread(&mut self) {
-        self.lines -= memchr::memchr_iter(b'\n', &self.buf[..self.taken]).count();
+        self.lines -= nc::line_ends(&self.buf[..self.taken]);
         self.taken = 0;
     }
 
@@ -483,7 +487,7 @@ impl<R: Read> Chunks<R> {
             let cut = if self.eof {
                 self.filled
             } else {
-                memchr::memrchr(b'\n', &self.buf[..self.filled]).map_or(0, |i| i + 1)
+                nc::whole_lines(&self.buf[..self.filled])
             };
             // Read more unless a good share of the buffer holds whole lines.
             if self.eof || (cut > 0 && self.filled >= self.buf.len() / 2) {
@@ -493,7 +497,7 @@ impl<R: Read> Chunks<R> {
                 self.taken = cut;
                 let chunk = &self.buf[..cut];
                 let before = self.lines;
-                self.lines += memchr::memchr_iter(b'\n', chunk).count();
+                self.lines += nc::line_ends(chunk);
                 return Ok(Some((chunk, before, self.offset)));
             }
             if self.filled == self.buf.len() {
@@ -635,14 +639,30 @@ mod tests {
         ) {
             let mut chunks = Chunks::with_capacity(Trickle(&bytes, 0), capacity);
             let mut joined = Vec::new();
+            let mut cut = Vec::new();
             while let Some((chunk, before, offset)) = chunks.next().unwrap() {
                 prop_assert!(!chunk.is_empty());
                 prop_assert_eq!(offset, joined.len());
-                prop_assert_eq!(before, joined.iter().filter(|&&b| b == b'\n').count());
+                prop_assert_eq!(before, nc::line_ends(&joined));
                 joined.extend_from_slice(chunk);
-                // Only the input's last line may come without its ending.
-                prop_assert!(chunk.ends_with(b"\n") || joined.len() == bytes.len());
+                // Only the input's last line may come without its ending, and a CR ends
+                // a chunk only when no LF follows it.
+                prop_assert!(
+                    chunk.ends_with(b"\n")
+                        || (chunk.ends_with(b"\r") && bytes.get(joined.len()) != Some(&b'\n'))
+                        || joined.len() == bytes.len()
+                );
+                for mut line in nc::lines(chunk) {
+                    line.number += before;
+                    line.offset += offset;
+                    cut.push((line.number, line.offset, line.content.to_vec(), line.ending.to_vec()));
+                }
             }
+            // The lines of the chunks are the lines of the whole.
+            let whole: Vec<_> = nc::lines(&bytes)
+                .map(|l| (l.number, l.offset, l.content.to_vec(), l.ending.to_vec()))
+                .collect();
+            prop_assert_eq!(cut, whole);
             prop_assert_eq!(joined, bytes);
         }
     }

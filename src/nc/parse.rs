@@ -51,15 +51,38 @@ use super::{Line, Token, TokenKind, Value, Word};
 type PResult<'a, O> = IResult<&'a [u8], O, ()>;
 
 /// Split a program into lines. Every byte of `src` belongs to exactly one line's content
-/// or ending: `\n` and `\r\n` end a line (the `\r` belongs to the ending), the last line
-/// may have no ending, an empty input has no lines and a final `\n` does not start an
-/// extra empty line.
+/// or ending: `\n`, `\r\n` and a `\r` alone end a line (the `\r` of `\r\n` belongs to
+/// the ending), the last line may have no ending, an empty input has no lines and a final
+/// ending does not start an extra empty line. [`line_ends`] counts the same endings.
 pub fn lines(src: &[u8]) -> impl Iterator<Item = Line<'_>> {
     Lines {
         src,
         pos: 0,
         number: 0,
     }
+}
+
+/// The number of line endings in `bytes` as [`lines`] cuts them: each `\n`, and each `\r`
+/// not followed by `\n` (one at the very end counts: the caller knows whether its `\n` may
+/// follow).
+pub fn line_ends(bytes: &[u8]) -> usize {
+    memchr::memchr2_iter(b'\n', b'\r', bytes)
+        .filter(|&i| bytes[i] == b'\n' || bytes.get(i + 1) != Some(&b'\n'))
+        .count()
+}
+
+/// The length of the run of whole lines at the start of `buf`, a part of a longer text: up
+/// to and with its last line ending, where a `\r` at the very end is not taken (its `\n`
+/// may come next).
+pub fn whole_lines(buf: &[u8]) -> usize {
+    let mut end = buf.len();
+    while let Some(i) = memchr::memrchr2(b'\n', b'\r', &buf[..end]) {
+        if buf[i] == b'\n' || i + 1 < buf.len() {
+            return i + 1;
+        }
+        end = i;
+    }
+    0
 }
 
 /// Iterator behind [`lines`].
@@ -77,15 +100,16 @@ impl<'a> Iterator for Lines<'a> {
         let offset = self.pos;
         let rest = self.src.get(offset..).filter(|r| !r.is_empty())?;
         self.number += 1;
-        let (content, ending) = match memchr::memchr(b'\n', rest) {
-            Some(nl) => {
-                let cut = if nl > 0 && rest[nl - 1] == b'\r' {
-                    nl - 1
-                } else {
-                    nl
-                };
-                self.pos = offset + nl + 1;
-                (&rest[..cut], &rest[cut..=nl])
+        let (content, ending) = match memchr::memchr2(b'\n', b'\r', rest) {
+            // CR LF.
+            Some(cr) if rest[cr] == b'\r' && rest.get(cr + 1) == Some(&b'\n') => {
+                self.pos = offset + cr + 2;
+                (&rest[..cr], &rest[cr..cr + 2])
+            }
+            // LF, or CR alone (old Macintosh files, some TNC transfers).
+            Some(end) => {
+                self.pos = offset + end + 1;
+                (&rest[..end], &rest[end..=end])
             }
             None => {
                 self.pos = self.src.len();
@@ -703,7 +727,27 @@ mod tests {
         let cr: Vec<_> = lines(b"\r\n\r").collect();
         assert_eq!(cr.len(), 2);
         assert_eq!((cr[0].content, cr[0].ending), (&b""[..], &b"\r\n"[..]));
-        assert_eq!((cr[1].content, cr[1].ending), (&b"\r"[..], &b""[..]));
+        assert_eq!((cr[1].content, cr[1].ending), (&b""[..], &b"\r"[..]));
+        // A carriage return alone ends a line, wherever it stands.
+        let cr: Vec<_> = lines(b"a\rb\r\r\nc\r").collect();
+        let cut: Vec<_> = cr.iter().map(|l| (l.number, l.content, l.ending)).collect();
+        assert_eq!(
+            cut,
+            [
+                (1, &b"a"[..], &b"\r"[..]),
+                (2, &b"b"[..], &b"\r"[..]),
+                (3, &b""[..], &b"\r\n"[..]),
+                (4, &b"c"[..], &b"\r"[..]),
+            ]
+        );
+        for text in [&b"a\rb\r\r\nc\r"[..], b"\r\n\r", b"x\n\ny", b"\r", b""] {
+            let ends = lines(text).filter(|l| !l.ending.is_empty()).count();
+            assert_eq!(line_ends(text), ends, "{text:?}");
+        }
+        assert_eq!(whole_lines(b"a\rb\r"), 2);
+        assert_eq!(whole_lines(b"a\r\nb\r"), 3);
+        assert_eq!(whole_lines(b"a\rb"), 2);
+        assert_eq!(whole_lines(b"ab"), 0);
     }
 
     #[test]

@@ -133,14 +133,6 @@ impl Reader<'_> {
                         "this looks like {dialect}, in a program read as G-code: nccomp reads a Sinumerik program as one when one of its first 200 lines has a Siemens instruction (DEF, TRAORI, CYCLE800, MSG, T=\"…\" …), or with --dialect sinumerik (expected G-code such as G1 X10.5 here)"
                     ),
                 ),
-                // Lines ended by CR alone run together into one.
-                None if line.content.contains(&b'\r') => at(
-                    line.content.iter().position(|&b| b == b'\r').unwrap_or(0),
-                    format!(
-                        "{} (this line holds carriage returns (CR) without line feeds: expected lines that end in LF or CR LF)",
-                        d.message
-                    ),
-                ),
                 None => d,
             })
     }

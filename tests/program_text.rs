@@ -1,0 +1,95 @@
+//! How the program's text is taken before any block is compensated (issue 34, cases 6 to
+//! 9): line endings of a carriage return alone, text past the program's end, label calls
+//! nested in label calls, and coordinate settings that are not moves. Each is either read
+//! as the control reads it or refused with the place and the reason, never passed silently
+//! wrong.
+
+mod common;
+
+use nccomp::compensate::{Compensator, Options, Summary};
+use nccomp::model::{ErrorModel, Machine, error_file, machine_file};
+use std::path::Path;
+
+fn fixture(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures")
+        .join(name)
+}
+
+fn load(name: &str) -> (Machine, ErrorModel) {
+    let m = machine_file::load(&fixture(&format!("{name}.machine.toml"))).unwrap();
+    let e = error_file::load(&fixture(&format!("{name}.errors.toml")), &m).unwrap();
+    (m, e)
+}
+
+/// Compensate `src` (named `name`): the output and the summary, or the rendered errors.
+fn run(m: &Machine, e: &ErrorModel, src: &[u8], name: &str) -> Result<(Vec<u8>, Summary), String> {
+    let comp = Compensator::new(m, e, Options::default()).unwrap();
+    let mut out = Vec::new();
+    comp.run(src, name, &mut out)
+        .map(|s| (out, s))
+        .map_err(|e| e.to_string())
+}
+
+// ---------------------------------------------------------------------------------------
+// Case 9: a carriage return alone ends a line, in every dialect.
+
+/// `src` with every line feed (and CR LF) turned into a carriage return alone.
+fn cr_only(src: &[u8]) -> Vec<u8> {
+    let text = String::from_utf8_lossy(src).replace("\r\n", "\n");
+    text.replace('\n', "\r").into_bytes()
+}
+
+#[track_caller]
+fn same_as_with_line_feeds(machine: &str, program: &str) {
+    let (m, e) = load(machine);
+    let lf = std::fs::read(fixture(program)).unwrap();
+    let lf = String::from_utf8_lossy(&lf)
+        .replace("\r\n", "\n")
+        .into_bytes();
+    let cr = cr_only(&lf);
+    let (out_lf, sum_lf) = run(&m, &e, &lf, program).unwrap();
+    let (out_cr, sum_cr) = match run(&m, &e, &cr, program) {
+        Ok(r) => r,
+        Err(e) => panic!("{program} with CR endings refused: {e}"),
+    };
+    assert!(sum_lf.motion_blocks > 0, "{program}");
+    // The same blocks, the same words; only the endings differ, each kept as it was.
+    assert_eq!(sum_cr.motion_blocks, sum_lf.motion_blocks, "{program}");
+    assert_eq!(sum_cr.lines, sum_lf.lines, "{program}");
+    assert!(
+        !out_cr.contains(&b'\n'),
+        "{program}: a line feed was written"
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&out_cr).replace('\r', "\n"),
+        String::from_utf8_lossy(&out_lf),
+        "{program}"
+    );
+    // Streamed, the same bytes.
+    let comp = Compensator::new(&m, &e, Options::default()).unwrap();
+    let mut streamed = Vec::new();
+    comp.run_stream(&cr[..], program, &mut streamed, "out")
+        .unwrap();
+    assert_eq!(streamed, out_cr, "{program} streamed");
+    // With a zero model, the input back byte for byte.
+    let zero = ErrorModel::zero(&m);
+    let (same, _) = run(&m, &zero, &cr, program).unwrap();
+    assert_eq!(same, cr, "{program}: zero model");
+}
+
+#[test]
+fn carriage_returns_alone_end_lines_in_every_dialect() {
+    same_as_with_line_feeds("ac_trunnion", "tnc_ac_trunnion.h");
+    same_as_with_line_feeds("ac_trunnion", "ac_trunnion_tcp.nc");
+    same_as_with_line_feeds("ac_trunnion", "840d_ac_trunnion_traori.mpf");
+}
+
+#[test]
+fn a_refusal_in_a_program_with_carriage_returns_names_its_own_line() {
+    let (m, e) = load("ac_trunnion");
+    let src = b"G21 G90\rG0 X0 Y0 Z50 A-30 C0\rG41 D1 X10\rG40\r";
+    let err = run(&m, &e, src, "p.nc").unwrap_err();
+    assert!(err.contains("p.nc:3:"), "{err}");
+    assert!(err.contains("G41"), "{err}");
+}
