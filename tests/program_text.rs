@@ -5,6 +5,7 @@
 //! wrong.
 
 mod common;
+use common::cli::{nccomp, scratch, stdout};
 
 use nccomp::compensate::{Compensator, Options, Summary};
 use nccomp::model::{ErrorModel, Machine, error_file, machine_file};
@@ -92,4 +93,71 @@ fn a_refusal_in_a_program_with_carriage_returns_names_its_own_line() {
     let err = run(&m, &e, src, "p.nc").unwrap_err();
     assert!(err.contains("p.nc:3:"), "{err}");
     assert!(err.contains("G41"), "{err}");
+}
+
+// ---------------------------------------------------------------------------------------
+// Case 8: labels calling labels are not run an exponential number of times.
+
+/// A TNC program whose `LBL 1` calls `LBL 2` twenty times, `LBL 2` calls `LBL 3` twenty
+/// times, … eight deep: 20^7 calls of `LBL 8` (hours) if every call were run out.
+fn nested_labels() -> String {
+    let mut s = String::from(
+        "0 BEGIN PGM NESTED MM\n1 BLK FORM 0.1 Z X-60 Y-45 Z-30\n2 BLK FORM 0.2 X60 Y45 Z0\n\
+         3 TOOL CALL 1 Z S8000\n4 L X+0 Y+0 Z+100 A+0 C+0 R0 FMAX\n5 CALL LBL 1\n\
+         6 L X+10 Y+0 Z+50 R0 FMAX\n7 M30\n",
+    );
+    let mut n = 8;
+    let mut line = |s: &mut String, text: &str| {
+        s.push_str(&format!("{n} {text}\n"));
+        n += 1;
+    };
+    for level in 1..=8 {
+        line(&mut s, &format!("LBL {level}"));
+        if level < 8 {
+            for _ in 0..20 {
+                line(&mut s, &format!("CALL LBL {}", level + 1));
+            }
+        } else {
+            line(&mut s, "FN 0: Q1=+1");
+        }
+        line(&mut s, "LBL 0");
+    }
+    line(&mut s, "END PGM NESTED MM");
+    s
+}
+
+#[test]
+fn nested_label_calls_finish_compensated_or_refused_at_the_call() {
+    let (m, e) = load("ac_trunnion");
+    let src = nested_labels();
+    assert!(src.lines().count() < 200);
+    match run(&m, &e, src.as_bytes(), "nested.h") {
+        // Compensated: the move after the call is there.
+        Ok((out, summary)) => {
+            assert!(summary.motion_blocks >= 2, "{summary}");
+            assert!(String::from_utf8_lossy(&out).contains("END PGM NESTED MM"));
+        }
+        // Refused: at the CALL LBL of the main program, saying why.
+        Err(err) => {
+            assert!(err.contains("nested.h:6:3"), "{err}");
+            assert!(err.contains("CALL LBL"), "{err}");
+            assert!(err.contains("blocks"), "{err}");
+        }
+    }
+    // `check` gives its report.
+    let dir = scratch("nested-labels");
+    let path = dir.join("nested.h");
+    std::fs::write(&path, &src).unwrap();
+    let out = nccomp(&[
+        "check",
+        "--format",
+        "json",
+        "-m",
+        "fixtures/ac_trunnion.machine.toml",
+        "-e",
+        "fixtures/ac_trunnion.errors.toml",
+        path.to_str().unwrap(),
+    ]);
+    let doc: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    assert_eq!(doc["programs"].as_array().unwrap().len(), 1, "{doc:#}");
 }
