@@ -5,7 +5,7 @@
 //! wrong.
 
 mod common;
-use common::cli::{nccomp, scratch, stdout};
+use common::cli::{nccomp, scratch, stderr, stdout};
 
 use nccomp::compensate::{Compensator, Options, Summary};
 use nccomp::model::{ErrorModel, Machine, error_file, machine_file};
@@ -160,4 +160,79 @@ fn nested_label_calls_finish_compensated_or_refused_at_the_call() {
     ]);
     let doc: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
     assert_eq!(doc["programs"].as_array().unwrap().len(), 1, "{doc:#}");
+}
+
+// ---------------------------------------------------------------------------------------
+// Case 7: what follows the program's end is not compensated in the state the program
+// ended in.
+
+#[test]
+fn a_subprogram_stored_after_m30_is_left_unchanged_and_named() {
+    let (m, e) = load("ac_trunnion");
+    let main = "%\nO1000\nG21 G90\nG0 X0 Y0 Z50. A-30. C0\nG1 X20. Y10. Z40. F500\nM30\n";
+    let sub = "O1001\nG1 X5. Y5. Z45.\nG0 X0 Y0\nM99\n%\n";
+    let src = format!("{main}{sub}");
+    let (out, summary) = run(&m, &e, src.as_bytes(), "p.nc").unwrap();
+    let out = String::from_utf8(out).unwrap();
+    // The main program is compensated, the stored subprogram kept byte for byte.
+    assert!(!out.starts_with(main), "{out}");
+    assert!(out.ends_with(sub), "{out}");
+    assert_eq!(summary.motion_blocks, 2, "{summary}");
+    let text = summary.to_string();
+    assert!(
+        text.contains("note: 4 lines after the program's end (line 6) left unchanged"),
+        "{text}"
+    );
+
+    // The same in a Sinumerik program (M2 ends it).
+    let src = "G71 G90\nG0 X0 Y0 Z50 A-30 C0\nG1 X20 Y10 Z40 F500\nM2\nG1 X5 Y5 Z45\n";
+    let (out, summary) = run(&m, &e, src.as_bytes(), "p.mpf").unwrap();
+    let out = String::from_utf8(out).unwrap();
+    assert!(out.ends_with("M2\nG1 X5 Y5 Z45\n"), "{out}");
+    assert!(
+        summary
+            .to_string()
+            .contains("note: 1 line after the program's end (line 4) left unchanged"),
+        "{summary}"
+    );
+
+    // An optional end (`/M30`) does not end the program with block delete off: what
+    // follows is still compensated.
+    let src = "G21 G90\nG0 X0 Y0 Z50. A-30. C0\n/M30\nG1 X20. Y10. Z40. F500\nM30\n";
+    let (out, summary) = run(&m, &e, src.as_bytes(), "p.nc").unwrap();
+    assert_eq!(summary.motion_blocks, 2, "{summary}");
+    assert!(
+        !String::from_utf8(out)
+            .unwrap()
+            .contains("G1 X20. Y10. Z40. F500")
+    );
+    assert!(!summary.to_string().contains("after the program's end"));
+}
+
+#[test]
+fn the_summary_of_compensate_names_lines_after_the_end() {
+    let dir = scratch("after-end");
+    let p = dir.join("p.nc");
+    std::fs::write(
+        &p,
+        "G21 G90\nG0 X0 Y0 Z50. A-30. C0\nG1 X20. Y10. Z40. F500\nM30\nO1001\nG1 X5.\nM99\n",
+    )
+    .unwrap();
+    let out = nccomp(&[
+        "compensate",
+        "-m",
+        "fixtures/ac_trunnion.machine.toml",
+        "-e",
+        "fixtures/ac_trunnion.errors.toml",
+        p.to_str().unwrap(),
+        "-o",
+        "-",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stdout(&out).ends_with("M30\nO1001\nG1 X5.\nM99\n"));
+    assert!(
+        stderr(&out).contains("note: 3 lines after the program's end (line 4) left unchanged"),
+        "{}",
+        stderr(&out)
+    );
 }

@@ -223,7 +223,13 @@ impl<'c, 'm> Run<'c, 'm> {
     }
 
     /// The summary and the blocks refused.
-    pub(super) fn finish_all(self) -> (Summary, Vec<Diagnostic>) {
+    pub(super) fn finish_all(mut self) -> (Summary, Vec<Diagnostic>) {
+        let modal = &self.state.modal;
+        if let Some(end) = modal.program_end
+            && modal.after_end > 0
+        {
+            self.summary.after_end = Some((end, modal.after_end));
+        }
         (self.summary, self.errors)
     }
 }

@@ -112,6 +112,17 @@ impl Reader<'_> {
         at: At<'_>,
         motion: &mut BlockMotion,
     ) -> Result<bool, Diagnostic> {
+        // Past M2/M30 the program has ended: what follows is not read in the state it
+        // ended in (a subprogram stored there runs only when called), and passes unchanged.
+        if modal.program_end.is_some() && modal.dialect != nc::Dialect::Heidenhain {
+            if tokens
+                .iter()
+                .any(|t| matches!(t.kind, TokenKind::Word(_) | TokenKind::Other))
+            {
+                modal.after_end += 1;
+            }
+            return Ok(false);
+        }
         match modal.dialect {
             nc::Dialect::Heidenhain => return self.read_tnc(line, tokens, modal, at, motion),
             nc::Dialect::Sinumerik => return self.read_840d(line, tokens, modal, at, motion),
@@ -637,6 +648,7 @@ impl Reader<'_> {
         let mut homed_letters = 0u32;
         let mut set_reference: Option<usize> = None;
         let mut returned: Option<usize> = None;
+        let mut program_end = false;
         // G187: its E word is the smoothing tolerance.
         let mut smoothing = false;
         // G68.2 (its X Y Z I J K are the plane's data) and G53.1.
@@ -894,6 +906,8 @@ impl Reader<'_> {
                 'M' => {
                     match self.code(b'M', (number * 10.0).round() as i64) {
                         Code::Return => returned = Some(t.span.start),
+                        // With block delete on, an optional end does not end the program.
+                        Code::ProgramEnd if !optional => program_end = true,
                         Code::Subprogram => {
                             return Err(refuse_code(t, "cannot be compensated: a subprogram call (M97/M98) is not supported".into()));
                         }
@@ -1015,6 +1029,9 @@ impl Reader<'_> {
         }
         if returned.is_some() {
             state.ended = Some(line.number);
+        }
+        if program_end {
+            state.program_end = Some(line.number);
         }
         if let Some(i) = extended {
             let p = p_number(tokens).filter(|p| p.fract() == 0.0 && (1.0..=300.0).contains(p));
