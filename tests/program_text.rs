@@ -236,3 +236,25 @@ fn the_summary_of_compensate_names_lines_after_the_end() {
         stderr(&out)
     );
 }
+
+// ---------------------------------------------------------------------------------------
+// Case 6: G50 on a lathe and G92 set coordinates; they move nothing.
+
+#[test]
+fn lathe_g50_and_g92_coordinate_settings_are_never_written_as_moves() {
+    let (m, e) = load("lathe");
+    for (setting, code) in [("G50 X8. Z4.", "G50"), ("G92 X8. Z4.", "G92")] {
+        let src = format!("G18 G90 G21\nG0 X20. Z5.\n{setting}\nG1 X10. Z0 F0.2\nM30\n");
+        let err = match run(&m, &e, src.as_bytes(), "p.nc") {
+            Ok((out, _)) => panic!("{setting} compensated:\n{}", String::from_utf8_lossy(&out)),
+            Err(err) => err,
+        };
+        assert!(err.contains(&format!("p.nc:3:1: {code}")), "{err}");
+        assert!(err.contains("coordinate"), "{err}");
+        assert!(err.contains("G54"), "{err}");
+    }
+    // G50 with S alone (the spindle speed limit) moves nothing and passes.
+    let src = "G18 G90 G21\nG50 S2000\nG0 X20. Z5.\nG1 X10. Z0 F0.2\nM30\n";
+    let (out, _) = run(&m, &e, src.as_bytes(), "p.nc").unwrap();
+    assert!(String::from_utf8(out).unwrap().contains("\nG50 S2000\n"));
+}

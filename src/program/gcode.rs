@@ -756,6 +756,17 @@ impl Reader<'_> {
                         continue;
                     }
                     let code = self.code(b'G', code10);
+                    // On a lathe G50 with axis words sets the coordinates of where the
+                    // tool stands (G92's meaning on a mill); G50 S… alone limits the
+                    // spindle speed.
+                    if code10 == 500
+                        && self.machine.lathe.is_some()
+                        && tokens.iter().any(|t| {
+                            matches!(&t.kind, TokenKind::Word(w) if b"XYZUVWABC".contains(&w.letter))
+                        })
+                    {
+                        return Err(refuse_code(t, "cannot be compensated: on a lathe, G50 with axis words is a coordinate setting (program zero moves so that where the tool stands takes the block's coordinates), not a move, and nccomp does not follow it (expected a work offset, G54–G59, for program zero; G50 S… alone, the spindle speed limit, passes)".into()));
+                    }
                     if offset_table {
                         match code {
                             Code::DataSetting(_) if code10 == 100 || code10 == 520 => {
@@ -791,6 +802,9 @@ impl Reader<'_> {
                                         code_text(line.content, t),
                                     ),
                                 ));
+                            }
+                            if (920..=923).contains(&code10) {
+                                return Err(refuse_code(t, "cannot be compensated: G92 is a coordinate setting (program zero moves so that where the axes stand takes the block's coordinates), not a move, and nccomp does not follow it (expected a work offset, G54–G59, for program zero)".into()));
                             }
                             let what = match code {
                                 Code::Unsupported(what)
