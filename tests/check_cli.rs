@@ -615,12 +615,22 @@ fn a_pattern_names_every_file_it_matched_even_dangling_links_and_non_utf8_names(
     assert_eq!(bad["status"], "findings", "{bad:#}");
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
 
-    // A dangling link the pattern matches: named, unusable, exit 2.
+    // A dangling link the pattern matches: named, unusable, exit 2; a FIFO likewise
+    // (reading it would wait for a writer forever).
     std::os::unix::fs::symlink(dir.join("nowhere.nc"), dir.join("link.nc")).unwrap();
+    let fifo = Command::new("mkfifo")
+        .arg(dir.join("pipe.nc"))
+        .status()
+        .unwrap();
+    assert!(fifo.success());
     let out = check(&[&pattern]);
     let text = stdout(&out);
     assert_eq!(out.status.code(), Some(2), "{text}");
     assert!(text.contains("link.nc: unusable"), "{text}");
+    assert!(
+        text.contains("pipe.nc: unusable") && text.contains("not a regular file"),
+        "{text}"
+    );
     assert!(text.contains("good.nc: clean"), "{text}");
     assert!(text.contains("caf\u{fffd}.nc: 2 findings"), "{text}");
 }
