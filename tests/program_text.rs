@@ -77,6 +77,17 @@ fn same_as_with_line_feeds(machine: &str, program: &str) {
     let zero = ErrorModel::zero(&m);
     let (same, _) = run(&m, &zero, &cr, program).unwrap();
     assert_eq!(same, cr, "{program}: zero model");
+    // Streamed (copied through unread, its lines counted as the pass counts them).
+    let comp = Compensator::new(&m, &zero, Options::default()).unwrap();
+    let mut copied = Vec::new();
+    let summary = comp
+        .run_stream(&cr[..], program, &mut copied, "out")
+        .unwrap();
+    assert_eq!(copied, cr, "{program}: zero model streamed");
+    assert_eq!(
+        summary.lines, sum_lf.lines,
+        "{program}: zero model's line count"
+    );
 }
 
 #[test]

@@ -633,6 +633,18 @@ mod tests {
     }
 
     proptest! {
+        /// The zero model copies the bytes and counts the lines `nc::lines` cuts, however
+        /// the reads split a CR LF.
+        #[test]
+        fn the_zero_models_copy_counts_lines_as_the_pass_does(
+            bytes in prop::collection::vec(prop::sample::select(b"ab\r\n".to_vec()), 0..100),
+        ) {
+            let mut out = Vec::new();
+            let summary = copy_through(Trickle(&bytes, 0), "in", &mut out, "out").unwrap();
+            prop_assert_eq!(&out, &bytes);
+            prop_assert_eq!(summary.lines, nc::lines(&bytes).count());
+        }
+
         #[test]
         fn block_numbers_read_as_std_reads_them(text in "[+-]?[0-9]{0,22}[.a ]?[0-9]{0,2}") {
             prop_assert_eq!(block_number(text.as_bytes()), text.parse::<u64>().ok());
