@@ -12,16 +12,24 @@ use std::path::{Path, PathBuf};
 /// U+FFFD). Any other argument is taken as a path, whether it exists or not (a missing
 /// file is reported when it is read).
 pub fn expand(args: &[String]) -> crate::Result<Vec<PathBuf>> {
-    let mut files: Vec<PathBuf> = Vec::new();
-    let mut push = |p: PathBuf| {
-        if !files.contains(&p) {
-            files.push(p);
+    expand_marked(args).map(|files| files.into_iter().map(|(p, _)| p).collect())
+}
+
+/// [`expand`], each file with whether a pattern matched it and it is not a regular file
+/// (a FIFO or a socket: reading one waits for a writer, so it is named, not read). A path
+/// given as it is, a FIFO included (`check <(…)`), is read.
+pub fn expand_marked(args: &[String]) -> crate::Result<Vec<(PathBuf, bool)>> {
+    let mut files: Vec<(PathBuf, bool)> = Vec::new();
+    let mut push = |p: PathBuf, matched: bool| {
+        if !files.iter().any(|(f, _)| *f == p) {
+            let special = matched && not_regular(&p);
+            files.push((p, special));
         }
     };
     for arg in args {
         // A file whose name holds `[` or `?` is still that file.
         if !arg.contains(['*', '?', '[']) || Path::new(arg).is_file() {
-            push(PathBuf::from(arg));
+            push(PathBuf::from(arg), false);
             continue;
         }
         let paths = glob::glob(arg)
@@ -44,12 +52,26 @@ pub fn expand(args: &[String]) -> crate::Result<Vec<PathBuf>> {
             return Err(Error::Usage(format!("`{arg}` matches no file")));
         }
         matched.sort();
-        matched.into_iter().for_each(&mut push);
+        matched.into_iter().for_each(|p| push(p, true));
     }
     if files.is_empty() {
         return Err(Error::Usage("no program to check".into()));
     }
     Ok(files)
+}
+
+/// The file at `path` is a FIFO or a socket.
+fn not_regular(path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        std::fs::metadata(path).is_ok_and(|m| m.file_type().is_fifo() || m.file_type().is_socket())
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        false
+    }
 }
 
 /// The paths `pattern` matches whose names are not UTF-8 (which `glob::glob` never

@@ -12,7 +12,7 @@ mod progress;
 mod report;
 pub mod stale;
 
-pub use expand::expand;
+pub use expand::{expand, expand_marked};
 pub use progress::progress_bar;
 
 use crate::compensate::{Compensator, Extreme, Options, Summary, TRAVEL_LIMIT};
@@ -405,18 +405,6 @@ impl<'m> Checker<'m> {
     /// so one bad file never stops the others).
     pub fn file(&self, path: &Path) -> ProgramCheck {
         let name = path.display().to_string();
-        // A pattern's match may be a FIFO or a socket: reading one would wait forever.
-        #[cfg(unix)]
-        if let Ok(meta) = std::fs::metadata(path) {
-            use std::os::unix::fs::FileTypeExt;
-            let t = meta.file_type();
-            if t.is_fifo() || t.is_socket() {
-                let message = format!(
-                    "{name}: not a regular file (a FIFO or a socket): expected an NC program file"
-                );
-                return ProgramCheck::unusable(&name, &Error::Usage(message));
-            }
-        }
         let check = || match std::fs::read(path) {
             Ok(src) => self.program(&src, &name),
             Err(e) => ProgramCheck::unusable(&name, &Error::io(path, e)),
@@ -439,6 +427,32 @@ impl<'m> Checker<'m> {
             .par_iter()
             .map(|p| {
                 let check = self.file(p);
+                done();
+                check
+            })
+            .collect()
+    }
+
+    /// [`Checker::files`] of the files [`super::expand_marked`] gives: one a pattern
+    /// matched that is a FIFO or a socket is unusable, not read (reading it would wait for
+    /// a writer).
+    pub fn matched_files(
+        &self,
+        files: &[(PathBuf, bool)],
+        done: &(dyn Fn() + Sync),
+    ) -> Vec<ProgramCheck> {
+        files
+            .par_iter()
+            .map(|(p, special)| {
+                let check = if *special {
+                    let name = p.display().to_string();
+                    let message = format!(
+                        "{name}: not a regular file (a FIFO or a socket), matched by a pattern: expected an NC program file"
+                    );
+                    ProgramCheck::unusable(&name, &Error::Usage(message))
+                } else {
+                    self.file(p)
+                };
                 done();
                 check
             })
