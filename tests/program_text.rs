@@ -97,6 +97,26 @@ fn carriage_returns_alone_end_lines_in_every_dialect() {
     same_as_with_line_feeds("ac_trunnion", "840d_ac_trunnion_traori.mpf");
 }
 
+/// A file converted to CR LF twice (`\r\r\n`) still has one line per line: a TNC
+/// cycle's continued lines (`~`) stay one block.
+#[test]
+fn carriage_returns_before_a_line_feed_belong_to_its_ending() {
+    let (m, e) = load("ac_trunnion");
+    let lf = std::fs::read(fixture("tnc_ac_trunnion.h")).unwrap();
+    let lf = String::from_utf8_lossy(&lf).replace("\r\n", "\n");
+    let crcrlf = lf.replace('\n', "\r\r\n");
+    let (out_lf, sum_lf) = run(&m, &e, lf.as_bytes(), "p.h").unwrap();
+    let (out, sum) = run(&m, &e, crcrlf.as_bytes(), "p.h").unwrap();
+    assert_eq!(
+        (sum.lines, sum.motion_blocks),
+        (sum_lf.lines, sum_lf.motion_blocks)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&out).replace("\r\r\n", "\n"),
+        String::from_utf8_lossy(&out_lf)
+    );
+}
+
 #[test]
 fn a_refusal_in_a_program_with_carriage_returns_names_its_own_line() {
     let (m, e) = load("ac_trunnion");

@@ -24,10 +24,8 @@ pub fn compare(name: &str, expected: &[u8], actual: &[u8]) -> Option<String> {
         .zip(actual)
         .position(|(a, b)| a != b)
         .unwrap_or(expected.len().min(actual.len()));
-    // Lines as `nc::lines` cuts them (a CR alone ends one; a CR whose LF follows at the
-    // difference does not yet).
-    let cr_of_crlf = expected[..first].ends_with(b"\r") && expected.get(first) == Some(&b'\n');
-    let line = crate::nc::line_ends(&expected[..first]) - usize::from(cr_of_crlf) + 1;
+    // Lines as `nc::lines` cuts them (a CR alone ends one).
+    let line = crate::nc::line_at(expected, first).0;
     let (removed, added) = diff
         .ops()
         .iter()

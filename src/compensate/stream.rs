@@ -408,8 +408,8 @@ fn copy_through(
     output_name: &str,
 ) -> crate::Result<Summary> {
     let mut buf = vec![0u8; CHUNK];
-    let (mut lines, mut last) = (0usize, b'\n');
-    // A `\r` ends a line unless a `\n` follows it, perhaps in the next read.
+    // Line endings as the pass cuts lines (a CR LF may be split between two reads).
+    let (mut ends, mut last) = (nc::LineEnds::default(), b'\n');
     loop {
         let k = match input.read(&mut buf) {
             Ok(0) => break,
@@ -422,10 +422,7 @@ fn copy_through(
                 });
             }
         };
-        lines += nc::line_ends(&buf[..k]);
-        if last == b'\r' && buf[0] == b'\n' {
-            lines -= 1;
-        }
+        ends.feed(&buf[..k]);
         last = buf[k - 1];
         output.write_all(&buf[..k]).map_err(|source| Error::Io {
             path: output_name.to_string(),
@@ -439,7 +436,7 @@ fn copy_through(
     // A last line without its ending counts too.
     Ok(Summary {
         zero_model: true,
-        lines: lines + usize::from(last != b'\n' && last != b'\r'),
+        lines: ends.finish() + usize::from(last != b'\n' && last != b'\r'),
         ..Summary::default()
     })
 }
