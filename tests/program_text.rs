@@ -227,6 +227,25 @@ fn a_subprogram_stored_after_m30_is_left_unchanged_and_named() {
         "{summary}"
     );
 
+    // A TNC program ends at END PGM (its labels after M30 run when called).
+    let tnc = std::fs::read_to_string(fixture("tnc_ac_trunnion.h")).unwrap();
+    let end = tnc.lines().count();
+    let src = format!("{tnc}L X+5 Y+5 Z+100 R0 FMAX\n");
+    let (m_out, summary) = run(&m, &e, src.as_bytes(), "p.h").unwrap();
+    assert!(
+        String::from_utf8(m_out)
+            .unwrap()
+            .ends_with("\nL X+5 Y+5 Z+100 R0 FMAX\n")
+    );
+    assert!(
+        summary.to_string().contains(&format!(
+            "note: 1 line after the program's end (line {end}) left unchanged"
+        )),
+        "{summary}"
+    );
+    let (_, summary) = run(&m, &e, tnc.as_bytes(), "p.h").unwrap();
+    assert!(!summary.to_string().contains("after the program's end"));
+
     // An optional end (`/M30`) does not end the program with block delete off: what
     // follows is still compensated.
     let src = "G21 G90\nG0 X0 Y0 Z50. A-30. C0\n/M30\nG1 X20. Y10. Z40. F500\nM30\n";

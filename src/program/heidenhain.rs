@@ -444,6 +444,14 @@ impl Reader<'_> {
         if sig.is_empty() {
             return Ok(false);
         }
+        // Past END PGM nothing belongs to the program: passed unchanged, and counted.
+        if tnc.depth == 0 && modal.program_end.is_some() {
+            modal.after_end += 1;
+            return Ok(false);
+        }
+        if tnc.depth == 0 && word(0) == "END" && word(1) == "PGM" {
+            modal.program_end = Some(number);
+        }
         if let Some((end_line, optional)) = tnc.end {
             // Past M30 only labels follow, run when called; past an optional M30 the
             // control runs on into them with block skip on: they may set data, jump

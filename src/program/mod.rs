@@ -301,9 +301,9 @@ pub struct Modal {
     pub shift: Option<[f64; 3]>,
     /// The line of the M99 that ended the program.
     pub ended: Option<usize>,
-    /// The line of the M2 or M30 (not optional) that ended an ISO or Sinumerik program:
-    /// the blocks after it do not run with the program (a subprogram stored there runs
-    /// only when called), and pass unchanged.
+    /// The line of the M2 or M30 (not optional) that ended an ISO or Sinumerik program, or
+    /// of a TNC program's END PGM: the blocks after it do not run with the program (a
+    /// subprogram stored there runs only when called), and pass unchanged.
     pub program_end: Option<usize>,
     /// The lines with blocks after `program_end`.
     pub after_end: usize,
