@@ -26,15 +26,9 @@ impl Diagnostic {
     /// A diagnostic at byte `offset` of `text` (the whole file).
     pub fn at(path: &str, text: &[u8], offset: usize, message: impl Into<String>) -> Self {
         let offset = offset.min(text.len());
-        let line_start = text[..offset]
-            .iter()
-            .rposition(|&b| b == b'\n')
-            .map_or(0, |i| i + 1);
-        let line_end = text[offset..]
-            .iter()
-            .position(|&b| b == b'\n')
-            .map_or(text.len(), |i| offset + i);
-        let line = text[..line_start].iter().filter(|&&b| b == b'\n').count() + 1;
+        // Lines as `nc::lines` cuts them (a `\r` alone ends one).
+        let (line, line_start, line_end) = crate::nc::line_at(text, offset);
+        let line_end = line_end.max(offset);
         let prefix = String::from_utf8_lossy(&text[line_start..offset]);
         let mut source_line = String::from_utf8_lossy(&text[line_start..line_end]).into_owned();
         if source_line.ends_with('\r') {

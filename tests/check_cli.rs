@@ -582,3 +582,55 @@ fn a_zero_model_reads_no_program_so_each_is_a_finding_unless_allowed() {
         "note: the error model is zero: the program passes unchanged and nothing was checked"
     ));
 }
+
+/// A pattern's matches that cannot be read, or whose names are not UTF-8, are never left
+/// out without a word (issue 34, case 10): a dangling symbolic link is named unusable
+/// (exit 2), a file whose name is not UTF-8 is checked like any other (here its program
+/// fails: exit 1 for it alone would already be non-zero).
+#[cfg(unix)]
+#[test]
+fn a_pattern_names_every_file_it_matched_even_dangling_links_and_non_utf8_names() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = scratch("pattern-unreadable");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/ac_trunnion_tcp.nc"),
+        dir.join("good.nc"),
+    )
+    .unwrap();
+    // A program that fails (cutter compensation is refused), under a Latin-1 name.
+    let odd = dir.join(OsStr::from_bytes(b"caf\xe9.nc"));
+    std::fs::copy(Path::new(env!("CARGO_MANIFEST_DIR")).join(DEMO), &odd).unwrap();
+    let pattern = format!("{}/*.nc", dir.display());
+
+    // The non-UTF-8 name alone: checked, its findings reported.
+    let out = check(&["--format", "json", &pattern]);
+    let doc = valid_json(&out);
+    let programs = doc["programs"].as_array().unwrap();
+    assert_eq!(programs.len(), 2, "{doc:#}");
+    let bad = programs
+        .iter()
+        .find(|p| p["path"].as_str().unwrap().contains("caf"))
+        .unwrap_or_else(|| panic!("the non-UTF-8 name is not in the report: {doc:#}"));
+    assert_eq!(bad["status"], "findings", "{bad:#}");
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+
+    // A dangling link the pattern matches: named, unusable, exit 2; a FIFO likewise
+    // (reading it would wait for a writer forever).
+    std::os::unix::fs::symlink(dir.join("nowhere.nc"), dir.join("link.nc")).unwrap();
+    let fifo = Command::new("mkfifo")
+        .arg(dir.join("pipe.nc"))
+        .status()
+        .unwrap();
+    assert!(fifo.success());
+    let out = check(&[&pattern]);
+    let text = stdout(&out);
+    assert_eq!(out.status.code(), Some(2), "{text}");
+    assert!(text.contains("link.nc: unusable"), "{text}");
+    assert!(
+        text.contains("pipe.nc: unusable") && text.contains("not a regular file"),
+        "{text}"
+    );
+    assert!(text.contains("good.nc: clean"), "{text}");
+    assert!(text.contains("caf\u{fffd}.nc: 2 findings"), "{text}");
+}

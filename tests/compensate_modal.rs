@@ -868,18 +868,21 @@ fn another_controls_program_is_named_not_misread() {
 }
 
 #[test]
-fn a_byte_order_mark_is_kept_and_cr_only_lines_are_named() {
+fn a_byte_order_mark_is_kept_and_cr_only_lines_are_read_as_lines() {
     // A UTF-8 BOM says how the file is encoded: the program is read after it and written
     // with it.
     let (out, summary) = compensate("\u{feff}G21 G90\nG0 X1 Y2 Z50 A0 C0\nG1 X5\n").unwrap();
     assert!(out.starts_with("\u{feff}G21 G90\n"), "{out}");
     assert_eq!(summary.motion_blocks, 2);
-    // Lines ended by CR alone run together: the message says so.
-    let err = compensate("G21 G90\rG0 X1 Y2 Z50 A0 C0\rG1 X5\r").unwrap_err();
+    // Lines ended by CR alone are lines, their endings kept.
+    let (out, summary) = compensate("G21 G90\rG0 X1 Y2 Z50 A0 C0\rG1 X5\r").unwrap();
+    assert_eq!(summary.motion_blocks, 2);
     assert!(
-        err.contains("carriage returns (CR) without line feeds"),
-        "{err}"
+        out.starts_with("G21 G90\rG0 X") && out.ends_with('\r'),
+        "{out:?}"
     );
+    assert_eq!(out.matches('\r').count(), 3, "{out:?}");
+    assert!(!out.contains('\n'), "{out:?}");
 }
 
 #[test]

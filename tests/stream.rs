@@ -310,6 +310,9 @@ fn an_error_at_the_last_line_fails_the_run_and_stops_the_output() {
     // The last block programs A past its travel: the whole run fails with a message at
     // that line, and nothing is written after the refused block.
     let mut src = program::program(6_000);
+    // Before the program's end (the blocks after M30 do not run, and pass unchanged).
+    assert!(src.ends_with(b"M30\n%\n"));
+    src.truncate(src.len() - b"M30\n%\n".len());
     src.extend_from_slice(b"G1 X0 Y0 Z10 A-200 C0\n");
     let lines = src.iter().filter(|&&b| b == b'\n').count();
     let (m, e) = fixture("ac_trunnion");

@@ -12,7 +12,7 @@ mod progress;
 mod report;
 pub mod stale;
 
-pub use expand::expand;
+pub use expand::{expand, expand_marked};
 pub use progress::progress_bar;
 
 use crate::compensate::{Compensator, Extreme, Options, Summary, TRAVEL_LIMIT};
@@ -427,6 +427,32 @@ impl<'m> Checker<'m> {
             .par_iter()
             .map(|p| {
                 let check = self.file(p);
+                done();
+                check
+            })
+            .collect()
+    }
+
+    /// [`Checker::files`] of the files [`super::expand_marked`] gives: one a pattern
+    /// matched that is a FIFO or a socket is unusable, not read (reading it would wait for
+    /// a writer).
+    pub fn matched_files(
+        &self,
+        files: &[(PathBuf, bool)],
+        done: &(dyn Fn() + Sync),
+    ) -> Vec<ProgramCheck> {
+        files
+            .par_iter()
+            .map(|(p, special)| {
+                let check = if *special {
+                    let name = p.display().to_string();
+                    let message = format!(
+                        "{name}: not a regular file (a FIFO or a socket), matched by a pattern: expected an NC program file"
+                    );
+                    ProgramCheck::unusable(&name, &Error::Usage(message))
+                } else {
+                    self.file(p)
+                };
                 done();
                 check
             })

@@ -24,7 +24,8 @@ pub fn compare(name: &str, expected: &[u8], actual: &[u8]) -> Option<String> {
         .zip(actual)
         .position(|(a, b)| a != b)
         .unwrap_or(expected.len().min(actual.len()));
-    let line = expected[..first].iter().filter(|&&b| b == b'\n').count() + 1;
+    // Lines as `nc::lines` cuts them (a CR alone ends one).
+    let line = crate::nc::line_at(expected, first).0;
     let (removed, added) = diff
         .ops()
         .iter()
@@ -70,6 +71,11 @@ mod tests {
     #[test]
     fn a_line_ending_or_a_digit_is_a_difference() {
         let report = compare("a.nc", b"G1 X1\r\nG1 X2\n", b"G1 X1\nG1 X2\n").unwrap();
+        assert!(report.contains("first difference at line 1"), "{report}");
+        // A carriage return alone ends a line (as nccomp reads the program).
+        let report = compare("a.nc", b"G0 Z5\rG1 X1\r", b"G0 Z5\rG1 X2\r").unwrap();
+        assert!(report.contains("first difference at line 2"), "{report}");
+        let report = compare("a.nc", b"G0 Z5\r\nG1 X1", b"G0 Z5\rG1 X1").unwrap();
         assert!(report.contains("first difference at line 1"), "{report}");
         let report = compare(
             "a.nc",

@@ -44,13 +44,13 @@ pub(super) fn check(args: &CheckArgs) -> crate::Result<Status> {
     let errors = error_file::load(&args.pass.errors, &machine)?;
     let checker = Checker::new(&machine, &errors, args.pass.options()?, thresholds)?
         .allow_unread(args.allow_unread);
-    let paths = crate::check::expand(&args.programs)?;
+    let paths = crate::check::expand_marked(&args.programs)?;
     let bar = crate::check::progress_bar(paths.len());
     // A panic on one program is caught and reported in that program's entry: the
     // default hook's "panicked at" on standard error would only repeat it.
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
-    let programs = checker.files(&paths, &|| bar.inc(1));
+    let programs = checker.matched_files(&paths, &|| bar.inc(1));
     std::panic::set_hook(hook);
     bar.finish_and_clear();
     let run = crate::check::Run {

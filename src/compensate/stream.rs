@@ -234,7 +234,13 @@ impl<'c, 'm> Run<'c, 'm> {
     }
 
     /// The summary and the blocks refused.
-    pub(super) fn finish_all(self) -> (Summary, Vec<Diagnostic>) {
+    pub(super) fn finish_all(mut self) -> (Summary, Vec<Diagnostic>) {
+        let modal = &self.state.modal;
+        if let Some(end) = modal.program_end
+            && modal.after_end > 0
+        {
+            self.summary.after_end = Some((end, modal.after_end));
+        }
         (self.summary, self.errors)
     }
 }
@@ -345,7 +351,7 @@ fn renumber(line: &nc::Line<'_>, tokens: &[Token], edits: &mut Vec<Edit>, shift:
     let inserted: usize = edits
         .iter()
         .filter(|e| e.at == (0..0))
-        .flat_map(|e| e.text.split(|&b| b == b'\n'))
+        .flat_map(|e| e.text.split(|&b| b == b'\n' || b == b'\r'))
         .filter(|l| {
             let l = l.trim_ascii_start();
             let l = l.strip_prefix(b"/").unwrap_or(l);
@@ -413,7 +419,8 @@ fn copy_through(
     output_name: &str,
 ) -> crate::Result<Summary> {
     let mut buf = vec![0u8; CHUNK];
-    let (mut lines, mut last) = (0usize, b'\n');
+    // Line endings as the pass cuts lines (a CR LF may be split between two reads).
+    let (mut ends, mut last) = (nc::LineEnds::default(), b'\n');
     loop {
         let k = match input.read(&mut buf) {
             Ok(0) => break,
@@ -426,7 +433,7 @@ fn copy_through(
                 });
             }
         };
-        lines += memchr::memchr_iter(b'\n', &buf[..k]).count();
+        ends.feed(&buf[..k]);
         last = buf[k - 1];
         output.write_all(&buf[..k]).map_err(|source| Error::Io {
             path: output_name.to_string(),
@@ -440,7 +447,7 @@ fn copy_through(
     // A last line without its ending counts too.
     Ok(Summary {
         zero_model: true,
-        lines: lines + usize::from(last != b'\n'),
+        lines: ends.finish() + usize::from(last != b'\n' && last != b'\r'),
         ..Summary::default()
     })
 }
@@ -478,7 +485,7 @@ impl<R: Read> Chunks<R> {
 
     /// Hand out the last chunk again at the next [`Chunks::next`].
     fn unread(&mut self) {
-        self.lines -= memchr::memchr_iter(b'\n', &self.buf[..self.taken]).count();
+        self.lines -= nc::line_ends(&self.buf[..self.taken]);
         self.taken = 0;
     }
 
@@ -494,7 +501,7 @@ impl<R: Read> Chunks<R> {
             let cut = if self.eof {
                 self.filled
             } else {
-                memchr::memrchr(b'\n', &self.buf[..self.filled]).map_or(0, |i| i + 1)
+                nc::whole_lines(&self.buf[..self.filled])
             };
             // Read more unless a good share of the buffer holds whole lines.
             if self.eof || (cut > 0 && self.filled >= self.buf.len() / 2) {
@@ -504,7 +511,7 @@ impl<R: Read> Chunks<R> {
                 self.taken = cut;
                 let chunk = &self.buf[..cut];
                 let before = self.lines;
-                self.lines += memchr::memchr_iter(b'\n', chunk).count();
+                self.lines += nc::line_ends(chunk);
                 return Ok(Some((chunk, before, self.offset)));
             }
             if self.filled == self.buf.len() {
@@ -634,6 +641,18 @@ mod tests {
     }
 
     proptest! {
+        /// The zero model copies the bytes and counts the lines `nc::lines` cuts, however
+        /// the reads split a CR LF.
+        #[test]
+        fn the_zero_models_copy_counts_lines_as_the_pass_does(
+            bytes in prop::collection::vec(prop::sample::select(b"ab\r\n".to_vec()), 0..100),
+        ) {
+            let mut out = Vec::new();
+            let summary = copy_through(Trickle(&bytes, 0), "in", &mut out, "out").unwrap();
+            prop_assert_eq!(&out, &bytes);
+            prop_assert_eq!(summary.lines, nc::lines(&bytes).count());
+        }
+
         #[test]
         fn block_numbers_read_as_std_reads_them(text in "[+-]?[0-9]{0,22}[.a ]?[0-9]{0,2}") {
             prop_assert_eq!(block_number(text.as_bytes()), text.parse::<u64>().ok());
@@ -646,14 +665,30 @@ mod tests {
         ) {
             let mut chunks = Chunks::with_capacity(Trickle(&bytes, 0), capacity);
             let mut joined = Vec::new();
+            let mut cut = Vec::new();
             while let Some((chunk, before, offset)) = chunks.next().unwrap() {
                 prop_assert!(!chunk.is_empty());
                 prop_assert_eq!(offset, joined.len());
-                prop_assert_eq!(before, joined.iter().filter(|&&b| b == b'\n').count());
+                prop_assert_eq!(before, nc::line_ends(&joined));
                 joined.extend_from_slice(chunk);
-                // Only the input's last line may come without its ending.
-                prop_assert!(chunk.ends_with(b"\n") || joined.len() == bytes.len());
+                // Only the input's last line may come without its ending, and a CR ends
+                // a chunk only when no LF follows it.
+                prop_assert!(
+                    chunk.ends_with(b"\n")
+                        || (chunk.ends_with(b"\r") && bytes.get(joined.len()) != Some(&b'\n'))
+                        || joined.len() == bytes.len()
+                );
+                for mut line in nc::lines(chunk) {
+                    line.number += before;
+                    line.offset += offset;
+                    cut.push((line.number, line.offset, line.content.to_vec(), line.ending.to_vec()));
+                }
             }
+            // The lines of the chunks are the lines of the whole.
+            let whole: Vec<_> = nc::lines(&bytes)
+                .map(|l| (l.number, l.offset, l.content.to_vec(), l.ending.to_vec()))
+                .collect();
+            prop_assert_eq!(cut, whole);
             prop_assert_eq!(joined, bytes);
         }
     }

@@ -126,6 +126,9 @@ pub struct Summary {
     /// `PLANE … TURN` or the `L` block after `PLANE … STAY`): the line and each rotary
     /// axis's name and angle (degrees), the solution nccomp follows.
     pub plane_positions: Vec<(usize, Vec<(String, f64)>)>,
+    /// The line of the M2/M30 that ended the program and the lines with blocks after it,
+    /// which do not run with the program and were written unchanged.
+    pub after_end: Option<(usize, usize)>,
 }
 
 impl Summary {
@@ -303,6 +306,12 @@ impl Summary {
         if let Some((line, units)) = self.units_assumed {
             out.push(format!(
                 "note: the program moves at line {line} before it says G20 or G21: its words were read in {units}, the machine file's `units` (check the control reads it so)"
+            ));
+        }
+        if let Some((end, lines)) = self.after_end {
+            out.push(format!(
+                "note: {} after the program's end (line {end}) left unchanged: they do not run with the program (a subprogram stored there is not compensated)",
+                count(lines, "line")
             ));
         }
         for (axis, line) in &self.assumed_home {

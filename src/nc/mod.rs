@@ -12,7 +12,7 @@ mod parse;
 pub mod sinumerik;
 
 pub(crate) use parse::to_f64;
-pub use parse::{lines, parse_line};
+pub use parse::{LineEnds, line_at, line_ends, lines, parse_line, whole_lines};
 
 use std::ops::Range;
 
@@ -93,7 +93,8 @@ pub struct Line<'a> {
     pub offset: usize,
     /// The line without its ending (a `\r` before `\n` belongs to the ending).
     pub content: &'a [u8],
-    /// `b"\n"`, `b"\r\n"` or `b""` (last line without a newline).
+    /// `b"\n"` with any `\r`s before it (`b"\r\n"`), `b"\r"` alone, or `b""` (last line
+    /// without a newline).
     pub ending: &'a [u8],
 }
 

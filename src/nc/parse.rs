@@ -51,15 +51,115 @@ use super::{Line, Token, TokenKind, Value, Word};
 type PResult<'a, O> = IResult<&'a [u8], O, ()>;
 
 /// Split a program into lines. Every byte of `src` belongs to exactly one line's content
-/// or ending: `\n` and `\r\n` end a line (the `\r` belongs to the ending), the last line
-/// may have no ending, an empty input has no lines and a final `\n` does not start an
-/// extra empty line.
+/// or ending: `\n` ends a line, with the `\r`s just before it (`\r\n`, and `\r\r\n` from
+/// a file converted twice), and so does a `\r` alone (old Macintosh files, some TNC
+/// transfers). The last line may have no ending, an empty input has no lines and a final
+/// ending does not start an extra empty line. [`line_ends`] counts the same endings.
 pub fn lines(src: &[u8]) -> impl Iterator<Item = Line<'_>> {
     Lines {
         src,
         pos: 0,
         number: 0,
+        lone: 0,
     }
+}
+
+/// Counts line endings as [`lines`] cuts them, over a text fed in pieces (a `\r\n` may be
+/// split between two).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LineEnds {
+    ends: usize,
+    /// `\r`s at the end of the text fed so far: line ends unless a `\n` follows them.
+    pending: usize,
+}
+
+impl LineEnds {
+    /// Count the endings in the next piece of the text.
+    pub fn feed(&mut self, buf: &[u8]) {
+        let mut i = 0;
+        while i < buf.len() {
+            let Some(k) = memchr::memchr2(b'\n', b'\r', &buf[i..]) else {
+                if self.pending > 0 && i == 0 {
+                    // The `\r`s before ended lines alone.
+                    self.ends += self.pending;
+                    self.pending = 0;
+                }
+                return;
+            };
+            let at = i + k;
+            if self.pending > 0 && at > i {
+                self.ends += self.pending;
+                self.pending = 0;
+            }
+            if buf[at] == b'\n' {
+                self.ends += 1;
+                self.pending = 0;
+                i = at + 1;
+                continue;
+            }
+            let run = buf[at..].iter().take_while(|&&b| b == b'\r').count();
+            match buf.get(at + run) {
+                // `\r…\r\n`: one ending.
+                Some(b'\n') => {
+                    self.ends += 1;
+                    self.pending = 0;
+                    i = at + run + 1;
+                }
+                // Each `\r` alone.
+                Some(_) => {
+                    self.ends += self.pending + run;
+                    self.pending = 0;
+                    i = at + run;
+                }
+                // Undecided until the next piece.
+                None => {
+                    self.pending += run;
+                    return;
+                }
+            }
+        }
+    }
+
+    /// The endings counted, a text's final `\r`s included.
+    pub fn finish(self) -> usize {
+        self.ends + self.pending
+    }
+}
+
+/// The number of line endings in `bytes` as [`lines`] cuts them (`\r`s at the very end
+/// count: the caller knows whether a `\n` may follow).
+pub fn line_ends(bytes: &[u8]) -> usize {
+    let mut count = LineEnds::default();
+    count.feed(bytes);
+    count.finish()
+}
+
+/// The length of the run of whole lines at the start of `buf`, a part of a longer text: up
+/// to and with its last line ending, where `\r`s at the very end are not taken (a `\n` may
+/// come next and end the line with them).
+pub fn whole_lines(buf: &[u8]) -> usize {
+    let trailing = buf.iter().rev().take_while(|&&b| b == b'\r').count();
+    // The last `\n` or `\r` before them ends a line: a `\r` there is followed by a byte
+    // that is neither.
+    memchr::memrchr2(b'\n', b'\r', &buf[..buf.len() - trailing]).map_or(0, |i| i + 1)
+}
+
+/// The line of `text` that holds byte `offset`: its number (from 1), where it starts and
+/// where its content ends (an offset at the end of the text is on the line after a final
+/// ending).
+pub fn line_at(text: &[u8], offset: usize) -> (usize, usize, usize) {
+    let mut start = 0;
+    let mut number = 1;
+    for line in lines(text) {
+        let end = line.offset + line.content.len() + line.ending.len();
+        if end <= offset && !line.ending.is_empty() {
+            number += 1;
+            start = end;
+            continue;
+        }
+        return (number, start, line.offset + line.content.len());
+    }
+    (number, start, text.len())
 }
 
 /// Iterator behind [`lines`].
@@ -67,6 +167,9 @@ struct Lines<'a> {
     src: &'a [u8],
     pos: usize,
     number: usize,
+    /// The `\r`s before this offset are known to end lines alone (a long run of them is
+    /// looked through once, not once a line).
+    lone: usize,
 }
 
 impl<'a> Iterator for Lines<'a> {
@@ -77,15 +180,24 @@ impl<'a> Iterator for Lines<'a> {
         let offset = self.pos;
         let rest = self.src.get(offset..).filter(|r| !r.is_empty())?;
         self.number += 1;
-        let (content, ending) = match memchr::memchr(b'\n', rest) {
-            Some(nl) => {
-                let cut = if nl > 0 && rest[nl - 1] == b'\r' {
-                    nl - 1
+        let (content, ending) = match memchr::memchr2(b'\n', b'\r', rest) {
+            Some(cr) if rest[cr] == b'\r' && offset + cr >= self.lone => {
+                let run = rest[cr..].iter().take_while(|&&b| b == b'\r').count();
+                if rest.get(cr + run) == Some(&b'\n') {
+                    // CR LF (or CR CR LF).
+                    self.pos = offset + cr + run + 1;
+                    (&rest[..cr], &rest[cr..=cr + run])
                 } else {
-                    nl
-                };
-                self.pos = offset + nl + 1;
-                (&rest[..cut], &rest[cut..=nl])
+                    // A CR alone, and the others of its run after it.
+                    self.lone = offset + cr + run;
+                    self.pos = offset + cr + 1;
+                    (&rest[..cr], &rest[cr..=cr])
+                }
+            }
+            // LF, or a CR known to stand alone.
+            Some(end) => {
+                self.pos = offset + end + 1;
+                (&rest[..end], &rest[end..=end])
             }
             None => {
                 self.pos = self.src.len();
@@ -542,6 +654,28 @@ mod tests {
     use super::*;
 
     proptest::proptest! {
+        /// The endings counted, whole or in pieces, are the endings `lines` cuts; the
+        /// lines cover the text.
+        #[test]
+        fn line_ends_are_the_endings_lines_cuts(
+            bytes in proptest::collection::vec(proptest::sample::select(b"ab\r\n".to_vec()), 0..80),
+            cut in 0usize..80,
+        ) {
+            let all: Vec<_> = lines(&bytes).collect();
+            let ends = all.iter().filter(|l| !l.ending.is_empty()).count();
+            proptest::prop_assert_eq!(line_ends(&bytes), ends);
+            let cut = cut.min(bytes.len());
+            let mut count = LineEnds::default();
+            count.feed(&bytes[..cut]);
+            count.feed(&bytes[cut..]);
+            proptest::prop_assert_eq!(count.finish(), ends);
+            let joined: Vec<u8> = all.iter().flat_map(|l| [l.content, l.ending].concat()).collect();
+            proptest::prop_assert_eq!(joined, bytes.clone());
+            for l in &all {
+                proptest::prop_assert!(!l.content.contains(&b'\r') && !l.content.contains(&b'\n'));
+            }
+        }
+
         #[test]
         fn plain_decimals_read_as_std_reads_them(
             int in "[+-]?[0-9]{0,17}",
@@ -703,7 +837,30 @@ mod tests {
         let cr: Vec<_> = lines(b"\r\n\r").collect();
         assert_eq!(cr.len(), 2);
         assert_eq!((cr[0].content, cr[0].ending), (&b""[..], &b"\r\n"[..]));
-        assert_eq!((cr[1].content, cr[1].ending), (&b"\r"[..], &b""[..]));
+        assert_eq!((cr[1].content, cr[1].ending), (&b""[..], &b"\r"[..]));
+        // A carriage return alone ends a line, wherever it stands.
+        let cr: Vec<_> = lines(b"a\rb\r\r\nc\r").collect();
+        let cut: Vec<_> = cr.iter().map(|l| (l.number, l.content, l.ending)).collect();
+        assert_eq!(
+            cut,
+            [
+                (1, &b"a"[..], &b"\r"[..]),
+                (2, &b"b"[..], &b"\r\r\n"[..]),
+                (3, &b"c"[..], &b"\r"[..]),
+            ]
+        );
+        // A run of CRs alone: a line each, looked through once.
+        let long = [b'\r'; 100_000];
+        assert_eq!(lines(&long).count(), 100_000);
+        assert_eq!(line_ends(&long), 100_000);
+        assert_eq!(whole_lines(b"a\rb\r"), 2);
+        assert_eq!(whole_lines(b"a\r\nb\r"), 3);
+        assert_eq!(whole_lines(b"a\rb"), 2);
+        assert_eq!(whole_lines(b"a\r\rb\r\r"), 3);
+        assert_eq!(whole_lines(b"ab"), 0);
+        assert_eq!(line_at(b"a\r\r\nb\rc", 5), (2, 4, 5));
+        assert_eq!(line_at(b"a\r\r\nb\rc", 2), (1, 0, 1));
+        assert_eq!(line_at(b"a\n", 2), (2, 2, 2));
     }
 
     #[test]

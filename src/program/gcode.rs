@@ -112,6 +112,17 @@ impl Reader<'_> {
         at: At<'_>,
         motion: &mut BlockMotion,
     ) -> Result<bool, Diagnostic> {
+        // Past M2/M30 the program has ended: what follows is not read in the state it
+        // ended in (a subprogram stored there runs only when called), and passes unchanged.
+        if modal.program_end.is_some() && modal.dialect != nc::Dialect::Heidenhain {
+            if tokens
+                .iter()
+                .any(|t| matches!(t.kind, TokenKind::Word(_) | TokenKind::Other))
+            {
+                modal.after_end += 1;
+            }
+            return Ok(false);
+        }
         match modal.dialect {
             nc::Dialect::Heidenhain => return self.read_tnc(line, tokens, modal, at, motion),
             nc::Dialect::Sinumerik => return self.read_840d(line, tokens, modal, at, motion),
@@ -131,14 +142,6 @@ impl Reader<'_> {
                     0,
                     format!(
                         "this looks like {dialect}, in a program read as G-code: nccomp reads a Sinumerik program as one when one of its first 200 lines has a Siemens instruction (DEF, TRAORI, CYCLE800, MSG, T=\"…\" …), or with --dialect sinumerik (expected G-code such as G1 X10.5 here)"
-                    ),
-                ),
-                // Lines ended by CR alone run together into one.
-                None if line.content.contains(&b'\r') => at(
-                    line.content.iter().position(|&b| b == b'\r').unwrap_or(0),
-                    format!(
-                        "{} (this line holds carriage returns (CR) without line feeds: expected lines that end in LF or CR LF)",
-                        d.message
                     ),
                 ),
                 None => d,
@@ -645,6 +648,7 @@ impl Reader<'_> {
         let mut homed_letters = 0u32;
         let mut set_reference: Option<usize> = None;
         let mut returned: Option<usize> = None;
+        let mut program_end = false;
         // G187: its E word is the smoothing tolerance.
         let mut smoothing = false;
         // G68.2 (its X Y Z I J K are the plane's data) and G53.1.
@@ -752,6 +756,17 @@ impl Reader<'_> {
                         continue;
                     }
                     let code = self.code(b'G', code10);
+                    // On a lathe G50 with axis words sets the coordinates of where the
+                    // tool stands (G92's meaning on a mill); G50 S… alone limits the
+                    // spindle speed.
+                    if code10 == 500
+                        && self.machine.lathe.is_some()
+                        && tokens.iter().any(|t| {
+                            matches!(&t.kind, TokenKind::Word(w) if b"XYZUVWABC".contains(&w.letter))
+                        })
+                    {
+                        return Err(refuse_code(t, "cannot be compensated: on a lathe, G50 with axis words is a coordinate setting (program zero moves so that where the tool stands takes the block's coordinates), not a move, and nccomp does not follow it (expected a work offset, G54–G59, for program zero; G50 S… alone, the spindle speed limit, passes)".into()));
+                    }
                     if offset_table {
                         match code {
                             Code::DataSetting(_) if code10 == 100 || code10 == 520 => {
@@ -787,6 +802,9 @@ impl Reader<'_> {
                                         code_text(line.content, t),
                                     ),
                                 ));
+                            }
+                            if (920..=923).contains(&code10) {
+                                return Err(refuse_code(t, "cannot be compensated: G92 is a coordinate setting (program zero moves so that where the axes stand takes the block's coordinates), not a move, and nccomp does not follow it (expected a work offset, G54–G59, for program zero)".into()));
                             }
                             let what = match code {
                                 Code::Unsupported(what)
@@ -902,6 +920,8 @@ impl Reader<'_> {
                 'M' => {
                     match self.code(b'M', (number * 10.0).round() as i64) {
                         Code::Return => returned = Some(t.span.start),
+                        // With block delete on, an optional end does not end the program.
+                        Code::ProgramEnd if !optional => program_end = true,
                         Code::Subprogram => {
                             return Err(refuse_code(t, "cannot be compensated: a subprogram call (M97/M98) is not supported".into()));
                         }
@@ -1023,6 +1043,9 @@ impl Reader<'_> {
         }
         if returned.is_some() {
             state.ended = Some(line.number);
+        }
+        if program_end {
+            state.program_end = Some(line.number);
         }
         if let Some(i) = extended {
             let p = p_number(tokens).filter(|p| p.fract() == 0.0 && (1.0..=300.0).contains(p));

@@ -32,6 +32,12 @@ use crate::nc::{self, Token, TokenKind, Value, heidenhain::is_q_parameter};
 /// The deepest a label may call labels.
 const MAX_CALL_DEPTH: u8 = 8;
 
+/// The most label blocks a program's `CALL LBL`s may run in all, calls within calls
+/// counted each time they run: labels that call labels several times grow exponentially
+/// with their depth (ten calls eight deep are 10^8 blocks), and the reading stops there
+/// with a refusal at the call rather than run on for days.
+pub const MAX_LABEL_BLOCKS: usize = 1_000_000;
+
 /// What the TNC front end keeps between blocks, beside the [`Modal`] state.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Tnc {
@@ -55,6 +61,8 @@ pub struct Tnc {
     pub labels: Arc<Labels>,
     /// How deep in label calls the block being read is.
     pub depth: u8,
+    /// The label blocks run so far by the program's calls (at most [`MAX_LABEL_BLOCKS`]).
+    pub label_blocks: usize,
     /// The line of the M2/M30 that ended the program, and whether it was optional (`/`).
     pub end: Option<(usize, bool)>,
     /// The line being read.
@@ -435,6 +443,14 @@ impl Reader<'_> {
         tnc.continued = continues(content);
         if sig.is_empty() {
             return Ok(false);
+        }
+        // Past END PGM nothing belongs to the program: passed unchanged, and counted.
+        if tnc.depth == 0 && modal.program_end.is_some() {
+            modal.after_end += 1;
+            return Ok(false);
+        }
+        if tnc.depth == 0 && word(0) == "END" && word(1) == "PGM" {
+            modal.program_end = Some(number);
         }
         if let Some((end_line, optional)) = tnc.end {
             // Past M30 only labels follow, run when called; past an optional M30 the
@@ -1738,6 +1754,16 @@ impl Reader<'_> {
         let continued = tnc.continued;
         tnc.continued = false;
         for (number, line) in &body.lines {
+            tnc.label_blocks += 1;
+            if tnc.label_blocks > MAX_LABEL_BLOCKS {
+                result = Err(at(
+                    col0,
+                    format!(
+                        "CALL LBL {name} is not followed: the program's label calls run more than {MAX_LABEL_BLOCKS} label blocks in all (labels that call labels, each call run through; expected label calls that run fewer blocks)"
+                    ),
+                ));
+                break;
+            }
             nc::heidenhain::parse_line(line, &mut sub_tokens);
             substitute(line, &mut sub_tokens, tnc);
             let inner = |_: usize, message: String| {

@@ -301,6 +301,12 @@ pub struct Modal {
     pub shift: Option<[f64; 3]>,
     /// The line of the M99 that ended the program.
     pub ended: Option<usize>,
+    /// The line of the M2 or M30 (not optional) that ended an ISO or Sinumerik program, or
+    /// of a TNC program's END PGM: the blocks after it do not run with the program (a
+    /// subprogram stored there runs only when called), and pass unchanged.
+    pub program_end: Option<usize>,
+    /// The lines with blocks after `program_end`.
+    pub after_end: usize,
     /// A tilted working plane in force (G68.2 … G69).
     pub working_plane: Option<WorkingPlane>,
     /// The active tool chain (index into [`Machine::tool_chains`]).
@@ -427,6 +433,8 @@ impl Modal {
             params: params::Params::default(),
             shift: Some([0.0; 3]),
             ended: None,
+            program_end: None,
+            after_end: 0,
             working_plane: None,
             chain,
             spindle: Spindle::Free,
