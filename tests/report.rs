@@ -121,7 +121,14 @@ fn the_map_of_a_constant_positioning_error_is_uniform_along_its_axis() {
         at: vec!["X=5".into()],
         ..options
     };
-    let e = report::build(&machine, &errors, b"G1 X1\n", Names::default(), &bad).unwrap_err();
+    let e = report::build(
+        &machine,
+        &errors,
+        b"G0 X1 Y0 Z0\nG1 X2\n",
+        Names::default(),
+        &bad,
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("span the map's grid"), "{e}");
 }
 

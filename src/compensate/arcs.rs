@@ -20,8 +20,6 @@ use crate::program::arc::{ArcPath, arc_path, plane_letters};
 use crate::program::{gcode, heidenhain};
 use std::fmt::Write;
 
-/// Largest distance (mm) of a chord from its arc.
-const CHORD: f64 = 0.0005;
 /// More pieces than this for one arc means a radius or a tolerance that makes no sense.
 const MAX_PIECES: usize = 100_000;
 
@@ -139,7 +137,7 @@ impl Mode for ArcMode {
             ));
         }
         let radius = path.r0.max(path.r1);
-        let step = 2.0 * (1.0 - (CHORD / radius).min(1.0)).acos();
+        let step = 2.0 * (1.0 - (pass.chord() / radius).min(1.0)).acos();
         let pieces = ((path.sweep.abs() / step).ceil() as usize).max(1);
         if pieces > MAX_PIECES {
             return Err(cx.refuse(

@@ -114,6 +114,9 @@ pub struct Compensator<'m> {
     shifted: Vec<std::sync::OnceLock<(usize, [f64; 3], Pass<'m>)>>,
 }
 
+/// The most a straight piece that replaces an arc lies from the arc (mm).
+const CHORD: f64 = 0.0005;
+
 /// How many different program zeros one program may use.
 const MAX_ZEROS: usize = 64;
 
@@ -632,6 +635,14 @@ impl<'m> Pass<'m> {
             pass.hold |= pass.idle;
         }
         Ok(pass)
+    }
+
+    /// How far a straight piece that replaces an arc may lie from the arc (mm): half a
+    /// micrometre, and never more than half the path tolerance, so that the piece's own
+    /// compensated path has the other half.
+    fn chord(&self) -> f64 {
+        let tolerance = self.options.path.unwrap_or_default().position;
+        (tolerance / 2.0).min(CHORD)
     }
 
     /// The variable of the axis named `name` (or driven by that letter), if any.

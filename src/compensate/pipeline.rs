@@ -314,7 +314,8 @@ impl Pass<'_> {
         state.uncertain &= !gone;
         state.unsettled &= !gone;
         let known = self.machine_positions(cx, state);
-        state.pos.unknown |= gone & !known;
+        // A machine move to a known place makes its axes known, unknown before or not.
+        state.pos.unknown = (state.pos.unknown | gone) & !known;
     }
 
     /// G53 and M91/M92 words where the machine file places program zero in machine

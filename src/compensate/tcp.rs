@@ -37,8 +37,6 @@ use crate::program::{WorkingPlane, gcode, heidenhain};
 use nalgebra::Vector3;
 use std::fmt::Write;
 
-/// Largest distance (mm) of a chord from the tip's arc.
-const CHORD: f64 = 0.0005;
 /// More pieces than this for one arc means a radius or a tolerance that makes no sense.
 const MAX_ARC_PIECES: usize = 100_000;
 /// The angle (rad) by which the direction the controller's solve reaches may differ from a
@@ -193,13 +191,24 @@ impl Mode for TcpMode {
         let given = |v: usize| cx.motion.axis_words[v].is_some();
         let tip_given = tips.iter().all(|&v| given(v));
         let rotary = pass.rotary_mask();
+        // Under G43.5 a vector sets every rotary axis.
+        let vector_given =
+            state.modal.tcp_vector && cx.motion.arc_words[..3].iter().any(Option::is_some);
         let rotary_unknown = (0..n)
             .filter(|&v| rotary & (1 << v) != 0 && state.pos.unknown & (1 << v) != 0 && !given(v))
             .fold(0u32, |m, v| m | 1 << v);
-        if state.pos.unknown != 0 && (!tip_given || rotary_unknown != 0) {
+        let start_unknown = state.pos.unknown != 0;
+        if start_unknown && (!tip_given || (rotary_unknown != 0 && !vector_given)) {
             return Err(cx.refuse(
                 first,
-                format!("where the tool stands before this block under {code} is not known (after a machine move: G28, G30, G53, M91, M92 or a machine move code; expected X, Y and Z and the rotary axes in this block)"),
+                format!("where the tool stands before this block under {code} is not known (at the start, or after a machine move: G28, G30, G53, M91, M92 or a machine move code; expected X, Y and Z and the tool's direction in this block)"),
+            ));
+        }
+        if start_unknown && !state.modal.rapid {
+            // The end is known, the start is not: where a feed move cuts on its way is not.
+            return Err(cx.refuse(
+                first,
+                format!("a feed move under {code} from where the tool stands, which is not known here (at the start, or after a machine move: G28, G30, G53, M91, M92 or a machine move code): where the real tool cuts on the way is not known (expected a rapid G0 to this block's pose first)"),
             ));
         }
         state.pos.unknown = 0;
@@ -223,7 +232,7 @@ impl Mode for TcpMode {
         // Where the move starts.
         self.q0 = state.pos.nominal;
         self.tip0 = Vector3::from(state.tip_nominal);
-        self.start = Some(End {
+        self.start = (!start_unknown).then(|| End {
             s: 0.0,
             ctrl: state.emitted,
             tip: Vector3::from(state.tip_written),
@@ -381,7 +390,7 @@ impl Mode for TcpMode {
         if let Some(arc) = self.tip_arc {
             // Chords of the tip's arc, each end compensated.
             let radius = arc.r0.max(arc.r1);
-            let step = 2.0 * (1.0 - (CHORD / radius).min(1.0)).acos();
+            let step = 2.0 * (1.0 - (pass.chord() / radius).min(1.0)).acos();
             let count = ((arc.sweep.abs() / step).ceil() as usize).max(1);
             if count > MAX_ARC_PIECES {
                 return Err(cx.refuse(

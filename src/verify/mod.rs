@@ -696,7 +696,7 @@ impl<'m> Gate<'m> {
                     position: (real.p - target.p).norm(),
                 }
             } else {
-                self.landing(o, &real, s_prev, n)
+                self.landing(o, &real, &w.mv.end, s_prev, n)
             };
             let direction = {
                 let q = o.mv.at(landing.s, n);
@@ -747,13 +747,32 @@ impl<'m> Gate<'m> {
             }
             let (mut worst_p, mut worst_d) = (0.0_f64, 0.0_f64);
             for t in SAMPLES {
-                let q_o = o.mv.at(s0 + (s1 - s0) * t, n);
-                let target = self.nominal_at(o, &q_o);
                 let real = self.real_at(w, &w.mv.at(t, n));
-                let dp = (real.p - target.p).norm();
+                // The nominal path's point nearest the real tip, from the same fraction
+                // by one step along the path's tangent: two parametrisations that differ
+                // along the way are timing, not path (the pass's arc check reads it so).
+                let guess = s0 + (s1 - s0) * t;
+                let at_guess = self.nominal_at(o, &o.mv.at(guess, n));
+                let h = 1e-6;
+                let ahead = self.nominal_at(o, &o.mv.at(guess + h, n));
+                let tangent = (ahead.p - at_guess.p) / h;
+                let along = tangent.norm_squared();
+                let s_near = if along > 1e-18 {
+                    (guess - (at_guess.p - real.p).dot(&tangent) / along)
+                        .clamp(s0.min(s1) - (s1 - s0).abs(), s0.max(s1) + (s1 - s0).abs())
+                        .clamp(0.0, 1.0)
+                } else {
+                    guess
+                };
+                let q_o = o.mv.at(s_near, n);
+                let target = self.nominal_at(o, &q_o);
+                let dp = (real.p - target.p).norm().min((real.p - at_guess.p).norm());
                 worst_p = worst_p.max(dp);
                 if !held && self.direction_judged(o, &q_o) {
-                    worst_d = worst_d.max(angle_between(&real.o, &target.o));
+                    // Either reading, as for the position.
+                    worst_d = worst_d.max(
+                        angle_between(&real.o, &target.o).min(angle_between(&real.o, &at_guess.o)),
+                    );
                 }
             }
             verdict.path_position.update(worst_p, w.mv.line, o.mv.line);
@@ -781,35 +800,55 @@ impl<'m> Gate<'m> {
         found
     }
 
-    /// Where on original move `o` (from fraction `from` on) the real tip `real` comes
-    /// nearest its nominal path.
-    fn landing(&self, o: &Step, real: &Pose, from: f64, n: usize) -> Landing {
+    /// Where on original move `o` (from fraction `from` on) the real tip `real` of written
+    /// words `words` comes nearest its nominal path: searched about the fraction whose
+    /// words are nearest the written ones (a piece's words are the original's at its
+    /// fraction plus a correction), and over the whole rest of the move.
+    fn landing(
+        &self,
+        o: &Step,
+        real: &Pose,
+        words: &[f64; MAX_AXES],
+        from: f64,
+        n: usize,
+    ) -> Landing {
         let dist = |s: f64| (self.nominal_at(o, &o.mv.at(s, n)).p - real.p).norm();
-        // A coarse scan, then a golden-section search about the best sample.
+        let near = projection(o, words, n).clamp(from, 1.0);
+        let mut best = self.search(&dist, near, (near - 0.02).max(from), (near + 0.02).min(1.0));
+        let wide = self.search(&dist, from, from, 1.0);
+        if wide.position < best.position {
+            best = wide;
+        }
+        best
+    }
+
+    /// The fraction in `[a, b]` where `dist` is least: a scan of 32 samples (and `guess`),
+    /// then a golden-section search about the best.
+    fn search(&self, dist: &dyn Fn(f64) -> f64, guess: f64, a: f64, b: f64) -> Landing {
         const COARSE: usize = 32;
-        let (mut best_s, mut best) = (from, dist(from));
-        for k in 1..=COARSE {
-            let s = from + (1.0 - from) * k as f64 / COARSE as f64;
+        let (mut best_s, mut best) = (guess, dist(guess));
+        for k in 0..=COARSE {
+            let s = a + (b - a) * k as f64 / COARSE as f64;
             let d = dist(s);
             if d < best {
                 (best_s, best) = (s, d);
             }
         }
-        let step = (1.0 - from) / COARSE as f64;
-        let (mut a, mut b) = ((best_s - step).max(from), (best_s + step).min(1.0));
+        let step = (b - a) / COARSE as f64;
+        let (mut lo, mut hi) = ((best_s - step).max(a), (best_s + step).min(b));
         let g = (5f64.sqrt() - 1.0) / 2.0;
-        for _ in 0..60 {
-            let (c, d) = (b - g * (b - a), a + g * (b - a));
+        for _ in 0..80 {
+            let (c, d) = (hi - g * (hi - lo), lo + g * (hi - lo));
             if dist(c) < dist(d) {
-                b = d;
+                hi = d;
             } else {
-                a = c;
+                lo = c;
             }
-            if b - a < 1e-12 {
+            if hi - lo < 1e-13 {
                 break;
             }
         }
-        let s = (a + b) / 2.0;
+        let s = (lo + hi) / 2.0;
         let d = dist(s);
         if d < best {
             (best_s, best) = (s, d);
@@ -818,6 +857,33 @@ impl<'m> Gate<'m> {
             s: best_s,
             position: best,
         }
+    }
+}
+
+/// The fraction of move `o` whose words are nearest `words`: along the move's straight
+/// line in axis space, or by the angle about an arc's centre.
+fn projection(o: &Step, words: &[f64; MAX_AXES], n: usize) -> f64 {
+    let Some(start) = o.mv.start else {
+        return 1.0;
+    };
+    if let crate::program::moves::Shape::Arc(arc) = &o.mv.shape
+        && arc.sweep != 0.0
+    {
+        let th = (words[arc.vb] - arc.centre.1).atan2(words[arc.va] - arc.centre.0);
+        let turned = (th - arc.th0) * arc.sweep.signum();
+        let turned = turned.rem_euclid(std::f64::consts::TAU);
+        return (turned / arc.sweep.abs()).clamp(0.0, 1.0);
+    }
+    let (mut num, mut den) = (0.0, 0.0);
+    for v in 0..n {
+        let d = o.mv.end[v] - start[v];
+        num += (words[v] - start[v]) * d;
+        den += d * d;
+    }
+    if den > 0.0 {
+        (num / den).clamp(0.0, 1.0)
+    } else {
+        1.0
     }
 }
 

@@ -141,6 +141,7 @@ impl<'m> Follower<'m> {
             Diagnostic::at(path, src, line.offset + offset, message)
         };
         let chain_before = self.modal.chain;
+        let shift_before = self.modal.shift;
         let every = |f: &Self| (1u32 << f.vars(f.modal.chain)) - 1;
         let tcp_before = self.modal.tcp;
         let plane_before = self.modal.working_plane;
@@ -153,6 +154,21 @@ impl<'m> Follower<'m> {
         }
         let n = self.reader.axes(self.modal.chain).len();
         let all = (1u32 << n) - 1;
+        if let (Some(old), Some(new)) = (shift_before, self.modal.shift)
+            && old != new
+        {
+            // A new program zero: the axes stay where they are, their program
+            // coordinates move (and an increment after it travels from there).
+            let axes = self.reader.axes(self.modal.chain);
+            for (c, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
+                if let Some(v) = axes.linear_of(letter) {
+                    let units = crate::program::exact::from_f64(old[c])
+                        - crate::program::exact::from_f64(new[c]);
+                    self.pos.nominal[v] += old[c] - new[c];
+                    self.pos.exact[v] = self.pos.exact[v].add(units);
+                }
+            }
+        }
         // The control's frame changed: where the axes stand in it is recomputed by the
         // control; the gate does not follow that.
         if self.modal.tcp != tcp_before || self.modal.working_plane != plane_before {
