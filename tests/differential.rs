@@ -16,7 +16,7 @@
 //!
 //!     cargo test --test differential -- --nocapture
 //!
-//! `NCCOMP_DIFF_MUTANTS` sets the number of mutants (default 1500), `NCCOMP_DIFF_SEED` the
+//! `NCCOMP_DIFF_MUTANTS` sets the number of mutants (default 3000), `NCCOMP_DIFF_SEED` the
 //! sequence.
 
 mod common;
@@ -73,6 +73,13 @@ struct Move {
     end: Q,
     arc: Option<Arc>,
     length: f64,
+    /// In an optional block (`/`).
+    optional: bool,
+    /// The block's axis words as written.
+    words: Q,
+    /// Whether an axis the move needs is unknown because a tool change sent it away (and
+    /// nothing else made it unknown).
+    after_tool_change: bool,
 }
 
 fn known(q: &Q) -> Option<[f64; 5]> {
@@ -158,6 +165,8 @@ fn words(body: &str) -> Result<Vec<(char, f64)>, String> {
 struct Tools {
     reference: f64,
     lengths: BTreeMap<u32, f64>,
+    /// Where the axes stand when a program starts (machine file `[start]`).
+    start: Q,
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -230,7 +239,9 @@ fn arc(
 /// construct this reader does not follow.
 fn read(text: &str, block_delete: bool, tools: &Tools) -> Result<Vec<Step>, String> {
     let mut steps = Vec::new();
-    let mut q: Q = [None; 5];
+    let mut q: Q = tools.start;
+    // Why an axis is unknown: sent away by a tool change (true) or anything else.
+    let mut changed = [false; 5];
     let mut motion: Option<Motion> = None;
     let mut absolute = true;
     let mut plane = 0;
@@ -357,6 +368,7 @@ fn read(text: &str, block_delete: bool, tools: &Tools) -> Result<Vec<Step>, Stri
                 for k in 0..5 {
                     if axes[k].is_some() || !has_axes {
                         q[k] = None;
+                        changed[k] = false;
                     }
                 }
             }
@@ -392,13 +404,19 @@ fn read(text: &str, block_delete: bool, tools: &Tools) -> Result<Vec<Step>, Stri
                 _ if centred => return Err(at("I/J/K/R outside an arc".into())),
                 _ => None,
             };
+            let unknown: Vec<usize> = (0..5)
+                .filter(|&k| q[k].is_none() || e[k].is_none())
+                .collect();
             steps.push(Step::Move(Move {
                 line: i,
+                optional,
+                words: axes,
                 motion: mode,
                 start: q,
                 end: e,
                 arc,
                 length,
+                after_tool_change: !unknown.is_empty() && unknown.iter().all(|&k| changed[k]),
             }));
             q = e;
         } else if centred {
@@ -408,6 +426,7 @@ fn read(text: &str, block_delete: bool, tools: &Tools) -> Result<Vec<Step>, Stri
             // The contract's default: a tool change sends the tool axis (Z) to the change
             // position, which the program does not know.
             q[2] = None;
+            changed[2] = true;
         }
         if end {
             break;
@@ -418,6 +437,21 @@ fn read(text: &str, block_delete: bool, tools: &Tools) -> Result<Vec<Step>, Stri
 
 // ---------------------------------------------------------------------------------------
 // The judge.
+
+/// The defects the campaign has found, each pinned by an ignored test below: reported and
+/// counted, but (unless `NCCOMP_DIFF_STRICT=1`) not failing the campaign until fixed.
+const FEED_FROM_UNKNOWN: &str =
+    "a feed move with an axis the program has not set was accepted (the contract refuses it)";
+const TOOL_CHANGE_FEED: &str = "a feed move with Z unknown after a tool change was accepted (the contract refuses it; issue 34 item 5)";
+const TOOL_CHANGE_RAPID: &str =
+    "a rapid with Z unknown after a tool change is given a Z word (issue 34 item 5)";
+const OPTIONAL_RAPID: &str = "an optional rapid that sets unknown axes again is left uncorrected: with block delete off its end is off the nominal pose";
+const KNOWN: &[&str] = &[
+    FEED_FROM_UNKNOWN,
+    TOOL_CHANGE_FEED,
+    TOOL_CHANGE_RAPID,
+    OPTIONAL_RAPID,
+];
 
 struct Eval {
     kin: Kinematics,
@@ -443,6 +477,14 @@ impl Eval {
             tools: Tools {
                 reference: machine.tool.length,
                 lengths: machine.tool.lengths.clone(),
+                start: {
+                    let mut q = [None; 5];
+                    for &(i, v) in &machine.start {
+                        let name = machine.axes[i].name.chars().next().unwrap();
+                        q[AXES.iter().position(|&a| a == name).unwrap()] = Some(v);
+                    }
+                    q
+                },
             },
         }
     }
@@ -533,9 +575,14 @@ struct Tally {
     worst_mid: f64,
     /// Tool direction at block ends away from the singular cone (|A| > 3°), rad.
     worst_direction: f64,
+    /// Where: the original's line (0-based) and the program's index in the campaign.
+    worst_direction_at: (usize, usize),
+    program: usize,
     /// Rapids at unknown axes whose known words nccomp corrected (in the air; the contract
     /// says they pass unchanged).
     unknown_rapids_changed: usize,
+    /// The same where the axis is unknown only because of a tool change (issue 34 item 5).
+    tool_change_rapids_changed: usize,
     /// Rapids written as feed moves or the reverse.
     motion_changed: usize,
 }
@@ -573,8 +620,12 @@ fn judge(
     tally.mids += local.mids;
     tally.worst_end = tally.worst_end.max(local.worst_end);
     tally.worst_mid = tally.worst_mid.max(local.worst_mid);
-    tally.worst_direction = tally.worst_direction.max(local.worst_direction);
+    if local.worst_direction > tally.worst_direction {
+        tally.worst_direction = local.worst_direction;
+        tally.worst_direction_at = (local.worst_direction_at.0, tally.program);
+    }
     tally.unknown_rapids_changed += local.unknown_rapids_changed;
+    tally.tool_change_rapids_changed += local.tool_change_rapids_changed;
     tally.motion_changed += local.motion_changed;
     Ok(Ok(()))
 }
@@ -621,7 +672,11 @@ fn compare(
                 let end = known(&mo.end);
                 if feed && (end.is_none() || known(&mo.start).is_none()) {
                     return Err(fail(
-                        "a feed move with an axis the program has not set was accepted (the contract refuses it)",
+                        if mo.after_tool_change {
+                            TOOL_CHANGE_FEED
+                        } else {
+                            FEED_FROM_UNKNOWN
+                        },
                         mo.line,
                         w.get(j).map(line_of),
                         f64::NAN,
@@ -644,7 +699,11 @@ fn compare(
                             (Some(a), Some(b)) => changed = changed.max((a - b).abs()),
                             _ => {
                                 return Err(fail(
-                                    "a rapid at unknown axes moves an axis the program left unknown (or leaves one unknown)",
+                                    if mo.after_tool_change {
+                                        TOOL_CHANGE_RAPID
+                                    } else {
+                                        "a rapid at unknown axes moves an axis the program left unknown (or leaves one unknown)"
+                                    },
                                     mo.line,
                                     Some(mw.line),
                                     f64::NAN,
@@ -653,7 +712,11 @@ fn compare(
                         }
                     }
                     if changed > 1e-9 {
-                        tally.unknown_rapids_changed += 1;
+                        if mo.after_tool_change {
+                            tally.tool_change_rapids_changed += 1;
+                        } else {
+                            tally.unknown_rapids_changed += 1;
+                        }
                     }
                     j += 1;
                     continue;
@@ -680,8 +743,17 @@ fn compare(
                     if zero {
                         continue;
                     }
+                    // nccomp's documented reading: an optional G90 block does not make an
+                    // unknown axis known again, so it passes unchanged; with block delete
+                    // off it runs, and its end is a known pose left uncorrected.
+                    let unchanged =
+                        matches!(w.get(j), Some(Step::Move(mw)) if mw.words == mo.words);
                     return Err(fail(
-                        "no written block ends at the original block's end",
+                        if mo.optional && !feed && unchanged {
+                            OPTIONAL_RAPID
+                        } else {
+                            "no written block ends at the original block's end"
+                        },
                         mo.line,
                         best.1,
                         best.0,
@@ -689,11 +761,21 @@ fn compare(
                 };
                 tally.ends += 1;
                 tally.worst_end = tally.worst_end.max(d);
-                if end[3].abs() > 3.0 {
-                    tally.worst_direction = tally.worst_direction.max((o - direction).norm());
+                let turned = (o - direction).norm();
+                if end[3].abs() > 3.0 && turned > tally.worst_direction {
+                    tally.worst_direction = turned;
+                    tally.worst_direction_at = (mo.line, tally.program);
                 }
                 for (n, s) in w[j..=i].iter().enumerate() {
                     let Step::Move(mw) = s else { unreachable!() };
+                    if !feed && j + n < i {
+                        return Err(fail(
+                            "a move inserted before a rapid",
+                            mo.line,
+                            Some(mw.line),
+                            f64::NAN,
+                        ));
+                    }
                     if (mw.motion == Motion::Rapid) != !feed {
                         if feed {
                             return Err(fail(
@@ -1226,7 +1308,7 @@ fn no_accepted_output_leaves_its_nominal_path() {
         .collect();
     seeds.extend(HANDWRITTEN.iter().map(|s| s.to_string()));
     let corpus = corpus();
-    let count = env("NCCOMP_DIFF_MUTANTS", 1500);
+    let count = env("NCCOMP_DIFF_MUTANTS", 3000);
     let mut rng = Lcg(env("NCCOMP_DIFF_SEED", 0x0d1f_f034));
     let mut tally = Tally::default();
     let (mut refused, mut panicked, mut passed) = (0, 0, 0);
@@ -1237,7 +1319,8 @@ fn no_accepted_output_leaves_its_nominal_path() {
     for _ in 0..count {
         programs.push(mutant(&mut rng, &seeds, &corpus));
     }
-    for program in &programs {
+    for (n, program) in programs.iter().enumerate() {
+        tally.program = n;
         match run_one(&comp, &eval, program, &mut tally) {
             Outcome::Refused => refused += 1,
             Outcome::Panicked => panicked += 1,
@@ -1277,9 +1360,24 @@ fn no_accepted_output_leaves_its_nominal_path() {
         tally.worst_direction * 1e6
     );
     eprintln!(
-        "  rapids at unknown axes with corrected words: {}; moves whose G0/G1 changed: {}",
-        tally.unknown_rapids_changed, tally.motion_changed
+        "  rapids at unknown axes with corrected words: {} (and {} where Z is unknown after a tool change); moves whose G0/G1 changed: {}",
+        tally.unknown_rapids_changed, tally.tool_change_rapids_changed, tally.motion_changed
     );
+    if tally.worst_direction > 0.0 {
+        let (line, n) = tally.worst_direction_at;
+        eprintln!(
+            "  (the worst tool direction: {:?}, line {} of program {n})",
+            programs[n].split('\n').nth(line).unwrap_or(""),
+            line + 1,
+        );
+    }
+    for (f, program, _) in &failures {
+        eprintln!(
+            "  off: {} | {:?}",
+            f.kind,
+            program.split('\n').nth(f.original_line).unwrap_or("")
+        );
+    }
     for (reason, n) in &not_judged {
         eprintln!("  not judged {n:>4}: {reason}");
     }
@@ -1290,7 +1388,7 @@ fn no_accepted_output_leaves_its_nominal_path() {
     for (kind, n) in &kinds {
         eprintln!("  OFF THE PATH {n:>4}: {kind}");
     }
-    let minimise_too = std::env::var("NCCOMP_DIFF_MINIMISE").is_ok();
+    let minimise_too = std::env::var("NCCOMP_DIFF_MINIMISE").is_ok_and(|v| v != "0");
     let mut shown: Vec<&str> = Vec::new();
     for (f, program, written) in &failures {
         if shown.contains(&f.kind) {
@@ -1313,9 +1411,229 @@ fn no_accepted_output_leaves_its_nominal_path() {
         passed * 3 > accepted,
         "too few outputs judged to mean anything"
     );
+    let strict = std::env::var("NCCOMP_DIFF_STRICT").is_ok_and(|v| v != "0");
+    let new: Vec<_> = failures
+        .iter()
+        .filter(|(f, _, _)| strict || !KNOWN.contains(&f.kind))
+        .collect();
     assert!(
-        failures.is_empty(),
-        "{} accepted outputs off their nominal path",
-        failures.len()
+        new.is_empty(),
+        "{} accepted outputs off their nominal path ({} of them of a kind not yet pinned by an ignored test below)",
+        failures.len(),
+        failures
+            .iter()
+            .filter(|(f, _, _)| !KNOWN.contains(&f.kind))
+            .count()
+    );
+}
+
+/// A program the campaign found: nccomp must refuse it or write it on its nominal path.
+#[track_caller]
+fn refused_or_on_the_path(program: &str) {
+    let s = setup();
+    let comp = Compensator::new(&s.machine, &s.errors, cli_options()).unwrap();
+    let eval = Eval::new(&s.machine, &s.errors);
+    let mut tally = Tally::default();
+    match run_one(&comp, &eval, program, &mut tally) {
+        Outcome::Refused | Outcome::Passed => {}
+        Outcome::Panicked => panic!("nccomp panicked"),
+        Outcome::NotJudged(reason) => panic!("not judged: {reason}"),
+        Outcome::Failed(f, written) => panic!(
+            "accepted off its nominal path: {} (block delete {}, original line {}, written line {:?}, {:.4} µm)\n{written}",
+            f.kind,
+            if f.block_delete { "on" } else { "off" },
+            f.original_line + 1,
+            f.written_line.map(|l| l + 1),
+            f.deviation * 1e3
+        ),
+    }
+}
+
+/// Defect: a feed move that starts where an axis is unknown (never set, or after G28/G53)
+/// and sets it in G90 is compensated at its end only and accepted; the contract refuses a
+/// feed move with an unknown axis. Its cut starts from the uncorrected pose the rapid
+/// before it left (the next test shows the size, ~20 µm).
+#[test]
+#[ignore = "defect: a feed move from an unknown axis is accepted"]
+fn a_feed_move_from_an_unknown_axis_is_refused() {
+    refused_or_on_the_path("G21 G90 G17\nG0 X100. Y80. A-30. C45.\nG1 Z6. F900\nM30\n");
+}
+
+/// Defect: after G28 Z an optional G90 rapid (`/G0 Z30.`) programs Z again. nccomp leaves
+/// it uncorrected (its reading: an optional block does not make an axis known); with block
+/// delete off it runs, ends ~20 µm off its nominal pose, and the feed move after it is
+/// corrected at its end only (with block delete on it is a feed from an unknown Z).
+#[test]
+#[ignore = "defect: an optional rapid that makes axes known again is left uncorrected"]
+fn an_optional_rapid_after_g28_is_corrected_or_refused() {
+    refused_or_on_the_path(
+        "G21 G90 G17\nG0 X10. Y10. Z40. A-20. C15.\nG91 G28 Z0\nG90 G0 X0 Y0\n/G0 Z30.\nG1 Z6. F900\nM30\n",
+    );
+}
+
+/// Defect (issue 34 item 5, open): a tool change does not make Z unknown. The contract's
+/// default sends Z to the change position; a feed move right after it is accepted.
+#[test]
+#[ignore = "defect: issue 34 item 5, a tool change moves Z"]
+fn a_feed_move_after_a_tool_change_is_refused() {
+    refused_or_on_the_path("G21 G90 G17\nG0 X20. Y0 Z30. A-15. C5.\nT1 M6\nG1 X25. F500\nM30\n");
+}
+
+/// Defect (issue 34 item 5, open): after a tool change a rapid that does not program Z is
+/// given a Z word (a diagonal rapid plunge from the change position).
+#[test]
+#[ignore = "defect: issue 34 item 5, a tool change moves Z"]
+fn a_rapid_after_a_tool_change_passes_unchanged() {
+    refused_or_on_the_path(
+        "G21 G90 G17\nG0 X0 Y0 Z60. A-20. C10.\nT2 M6\nG43 H2\nG0 X-75. Y-75.\nM30\n",
+    );
+}
+
+/// One program (`NCCOMP_DIFF_PROGRAM`, a file) compensated and judged, with its output:
+/// for looking at a case the campaign found.
+#[test]
+#[ignore]
+fn judge_one_program() {
+    let Ok(path) = std::env::var("NCCOMP_DIFF_PROGRAM") else {
+        return;
+    };
+    let program = std::fs::read_to_string(path).unwrap();
+    let s = setup();
+    let comp = Compensator::new(&s.machine, &s.errors, cli_options()).unwrap();
+    let eval = Eval::new(&s.machine, &s.errors);
+    let mut out = Vec::new();
+    let result = comp.run(program.as_bytes(), "mutant.nc", &mut out);
+    eprintln!(
+        "{result:?}\n--- written:\n{}",
+        String::from_utf8_lossy(&out)
+    );
+    let mut tally = Tally::default();
+    let written = String::from_utf8_lossy(&out).into_owned();
+    if result.is_ok() {
+        match judge(&eval, &program, &written, &mut tally) {
+            Ok(v) => eprintln!("judged: {v:?} {tally:?}"),
+            Err(f) => eprintln!("OFF THE PATH: {f:?}"),
+        }
+    }
+}
+
+/// The judge is not blind: outputs of the fixtures broken by hand (a word 3 µm off, a kept
+/// arc's direction flipped, pieces of a replaced arc dropped, an inserted piece made to
+/// run with block delete on) are each found off the path.
+#[test]
+fn the_judge_finds_hand_broken_outputs() {
+    let s = setup();
+    let comp = Compensator::new(&s.machine, &s.errors, cli_options()).unwrap();
+    let eval = Eval::new(&s.machine, &s.errors);
+    let compensate = |src: &str| {
+        let mut out = Vec::new();
+        comp.run(src.as_bytes(), "p.nc", &mut out).unwrap();
+        String::from_utf8(out).unwrap()
+    };
+    let broken = |original: &str, written: String, what: &str| {
+        let mut t = Tally::default();
+        assert!(
+            judge(&eval, original, &written, &mut t).is_err(),
+            "{what}: not found\n{written}"
+        );
+    };
+    // The seeds nccomp accepts, with their outputs.
+    let mut seeds: Vec<String> = FIXTURES
+        .iter()
+        .map(|f| common::contract::fixture(f))
+        .collect();
+    seeds.extend(HANDWRITTEN.iter().map(|s| s.to_string()));
+    let accepted: Vec<(String, String)> = seeds
+        .into_iter()
+        .filter_map(|src| {
+            let mut out = Vec::new();
+            comp.run(src.as_bytes(), "p.nc", &mut out).ok()?;
+            Some((src, String::from_utf8(out).unwrap()))
+        })
+        .collect();
+    let edit = |text: &str, i: usize, new: Option<String>| {
+        let mut l: Vec<String> = text.lines().map(str::to_string).collect();
+        match new {
+            Some(n) => l[i] = n,
+            None => {
+                l.drain(i..i + 5);
+            }
+        }
+        l.join("\n") + "\n"
+    };
+    let (mut words, mut arcs, mut pieces) = (0, 0, 0);
+    for (src, good) in &accepted {
+        let mut t = Tally::default();
+        assert!(
+            matches!(judge(&eval, src, good, &mut t), Ok(Ok(()))),
+            "{good}"
+        );
+        let lines: Vec<&str> = good.lines().collect();
+        // A word of a feed move 3 µm off.
+        if let Some(i) = lines.iter().position(|l| l.contains("G1 X")) {
+            // Each linear word off its own way, so that some part is across the move.
+            let new: Vec<String> = lines[i]
+                .split(' ')
+                .map(
+                    |w| match (w.chars().next(), w[1.min(w.len())..].parse::<f64>()) {
+                        (Some('X'), Ok(v)) => format!("X{:.4}", v + 0.003),
+                        (Some('Y'), Ok(v)) => format!("Y{:.4}", v - 0.003),
+                        (Some('Z'), Ok(v)) => format!("Z{:.4}", v + 0.002),
+                        _ => w.to_string(),
+                    },
+                )
+                .collect();
+            broken(src, edit(good, i, Some(new.join(" "))), "words 3 µm off");
+            words += 1;
+        }
+        // A kept arc turned the other way.
+        if let Some(i) = lines.iter().position(|l| l.contains(" G3 X")) {
+            let new = lines[i].replace(" G3 X", " G2 X");
+            broken(src, edit(good, i, Some(new)), "G3 as G2");
+            arcs += 1;
+        }
+        // Five pieces dropped from a run of inserted ones.
+        let original: std::collections::HashSet<&str> = src.lines().collect();
+        let mut run = 0;
+        for (i, l) in lines.iter().enumerate() {
+            run = if original.contains(l) { 0 } else { run + 1 };
+            if run == 30 {
+                broken(src, edit(good, i - 20, None), "pieces dropped");
+                pieces += 1;
+                break;
+            }
+        }
+    }
+    assert!(
+        words >= 3 && arcs >= 1 && pieces >= 1,
+        "{} accepted seeds: {words} words, {arcs} arcs, {pieces} runs of pieces broken",
+        accepted.len()
+    );
+    // A straight move written without its split: the G91 fixture's tilting moves.
+    let g91 = common::contract::fixture("ac_trunnion_g91.nc");
+    let good = compensate(&g91);
+    let mut t = Tally::default();
+    assert!(matches!(judge(&eval, &g91, &good, &mut t), Ok(Ok(()))));
+    // An optional block whose inserted pieces run with block delete on.
+    let program = "G21 G90 G17\nG0 X-60. Y-40. Z40. A-30. C0\nG1 Z10. F800\n/G1 X60. A-20. C40.\nG0 X60. Y40. Z40. A-20. C40.\nM30\n";
+    let good = compensate(program);
+    assert!(
+        good.lines().filter(|l| l.starts_with('/')).count() > 1,
+        "{good}"
+    );
+    let mut t = Tally::default();
+    assert!(matches!(judge(&eval, program, &good, &mut t), Ok(Ok(()))));
+    let unmarked: String = good
+        .lines()
+        .enumerate()
+        .map(|(n, l)| {
+            let first = good.lines().position(|l| l.starts_with('/')).unwrap();
+            if n == first { &l[1..] } else { l }.to_string() + "\n"
+        })
+        .collect();
+    broken(
+        program,
+        unmarked,
+        "a piece of an optional block not optional",
     );
 }
