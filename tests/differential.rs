@@ -24,7 +24,7 @@ mod common;
 use common::Lcg;
 use common::contract::{cli_options, root};
 use nalgebra::Vector3;
-use nccomp::compensate::Compensator;
+use nccomp::compensate::{Compensator, Options};
 use nccomp::kinematics::{Kinematics, Model};
 use nccomp::model::{ErrorModel, Machine, error_file, machine_file};
 use std::collections::BTreeMap;
@@ -111,6 +111,7 @@ impl Move {
 }
 
 #[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant)]
 enum Step {
     Move(Move),
     /// G28, G30 or G53 with axis words: left as written, its axes unknown afterwards.
@@ -581,6 +582,8 @@ struct Tally {
     /// Rapids at unknown axes whose known words nccomp corrected (in the air; the contract
     /// says they pass unchanged).
     unknown_rapids_changed: usize,
+    /// The first: the original's line (0-based) and the program's index.
+    unknown_rapid_at: Option<(usize, usize)>,
     /// The same where the axis is unknown only because of a tool change (issue 34 item 5).
     tool_change_rapids_changed: usize,
     /// Rapids written as feed moves or the reverse.
@@ -604,7 +607,10 @@ fn judge(
     } else {
         &[false]
     };
-    let mut local = Tally::default();
+    let mut local = Tally {
+        program: tally.program,
+        ..Tally::default()
+    };
     for &bd in states {
         let o = match read(original, bd, &eval.tools) {
             Ok(o) => o,
@@ -625,6 +631,9 @@ fn judge(
         tally.worst_direction_at = (local.worst_direction_at.0, tally.program);
     }
     tally.unknown_rapids_changed += local.unknown_rapids_changed;
+    if let Some((line, _)) = local.unknown_rapid_at {
+        tally.unknown_rapid_at.get_or_insert((line, tally.program));
+    }
     tally.tool_change_rapids_changed += local.tool_change_rapids_changed;
     tally.motion_changed += local.motion_changed;
     Ok(Ok(()))
@@ -696,7 +705,15 @@ fn compare(
                     for k in 0..5 {
                         match (mo.end[k], mw.end[k]) {
                             (None, None) => {}
-                            (Some(a), Some(b)) => changed = changed.max((a - b).abs()),
+                            (Some(_), Some(_)) => {
+                                // Only the block's own words: the others are the earlier
+                                // blocks' (corrected) values.
+                                if let (Some(a), Some(b)) = (mo.words[k], mw.words[k]) {
+                                    changed = changed.max((a - b).abs());
+                                } else if mo.words[k].is_some() != mw.words[k].is_some() {
+                                    changed = f64::INFINITY;
+                                }
+                            }
                             _ => {
                                 return Err(fail(
                                     if mo.after_tool_change {
@@ -716,6 +733,9 @@ fn compare(
                             tally.tool_change_rapids_changed += 1;
                         } else {
                             tally.unknown_rapids_changed += 1;
+                            tally
+                                .unknown_rapid_at
+                                .get_or_insert((mo.line, tally.program));
                         }
                     }
                     j += 1;
@@ -776,7 +796,7 @@ fn compare(
                             f64::NAN,
                         ));
                     }
-                    if (mw.motion == Motion::Rapid) != !feed {
+                    if (mw.motion == Motion::Rapid) == feed {
                         if feed {
                             return Err(fail(
                                 "a feed move written as a rapid",
@@ -1301,6 +1321,20 @@ fn no_accepted_output_leaves_its_nominal_path() {
     let started = Instant::now();
     let s = setup();
     let comp = Compensator::new(&s.machine, &s.errors, cli_options()).unwrap();
+    // The same pass without its verification gate: what the gate refuses, judged here.
+    let ungated = Compensator::new(
+        &s.machine,
+        &s.errors,
+        Options {
+            verify: false,
+            ..cli_options()
+        },
+    )
+    .unwrap();
+    // Programs the gate refused that the pass alone writes: (judged off the path, judged
+    // on it, not judged).
+    let mut gate = (0, 0, 0);
+    let mut gate_only_example: Option<String> = None;
     let eval = Eval::new(&s.machine, &s.errors);
     let mut seeds: Vec<String> = FIXTURES
         .iter()
@@ -1322,7 +1356,19 @@ fn no_accepted_output_leaves_its_nominal_path() {
     for (n, program) in programs.iter().enumerate() {
         tally.program = n;
         match run_one(&comp, &eval, program, &mut tally) {
-            Outcome::Refused => refused += 1,
+            Outcome::Refused => {
+                refused += 1;
+                let mut t = Tally::default();
+                match run_one(&ungated, &eval, program, &mut t) {
+                    Outcome::Failed(..) => gate.0 += 1,
+                    Outcome::Passed => {
+                        gate.1 += 1;
+                        gate_only_example.get_or_insert_with(|| program.clone());
+                    }
+                    Outcome::NotJudged(_) => gate.2 += 1,
+                    Outcome::Refused | Outcome::Panicked => {}
+                }
+            }
             Outcome::Panicked => panicked += 1,
             Outcome::Passed => passed += 1,
             Outcome::NotJudged(reason) => {
@@ -1363,6 +1409,26 @@ fn no_accepted_output_leaves_its_nominal_path() {
         "  rapids at unknown axes with corrected words: {} (and {} where Z is unknown after a tool change); moves whose G0/G1 changed: {}",
         tally.unknown_rapids_changed, tally.tool_change_rapids_changed, tally.motion_changed
     );
+    eprintln!(
+        "  of the refused, the pass without its gate writes {} that the gate alone refuses: {} of them off the path here, {} on it, {} not judged",
+        gate.0 + gate.1 + gate.2,
+        gate.0,
+        gate.1,
+        gate.2
+    );
+    if let Some((line, n)) = tally.unknown_rapid_at {
+        eprintln!(
+            "  (the first rapid at unknown axes with corrected words: {:?}, line {} of program {n})",
+            programs[n].split('\n').nth(line).unwrap_or(""),
+            line + 1
+        );
+    }
+    if let Some(p) = &gate_only_example {
+        eprintln!(
+            "  (the first the gate refuses and this judge finds on the path: {:?}…)",
+            p.lines().take(3).collect::<Vec<_>>().join(" / ")
+        );
+    }
     if tally.worst_direction > 0.0 {
         let (line, n) = tally.worst_direction_at;
         eprintln!(
