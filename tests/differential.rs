@@ -12,7 +12,15 @@
 //! the path tolerance (1 µm) plus the words' rounding of the original's nominal path.
 //!
 //! What the interpreter does not follow (TCP, working planes, rotations, cycles,
-//! parameters, inch, …) leaves an output "not judged" and counted.
+//! parameters, inch, …) leaves an output "not judged" and counted. Axes follow the
+//! contract's rule: unknown at the start (but for the machine file's `[start]`), after
+//! G28/G30/G53 and, for Z, after a tool change (M6); a rapid at unknown axes must pass
+//! unchanged, a feed move touching one must have been refused.
+//!
+//! The defects found are pinned by ignored tests at the end and counted by kind (`KNOWN`);
+//! `NCCOMP_DIFF_STRICT=1` fails on them too. The programs the gate refuses are also run
+//! through the pass without its gate and judged, to show what the gate catches and where
+//! it refuses an output this judge finds on the path.
 //!
 //!     cargo test --test differential -- --nocapture
 //!
@@ -1335,6 +1343,7 @@ fn no_accepted_output_leaves_its_nominal_path() {
     // on it, not judged).
     let mut gate = (0, 0, 0);
     let mut gate_only_example: Option<String> = None;
+    let mut gate_kinds: BTreeMap<&str, usize> = BTreeMap::new();
     let eval = Eval::new(&s.machine, &s.errors);
     let mut seeds: Vec<String> = FIXTURES
         .iter()
@@ -1360,7 +1369,10 @@ fn no_accepted_output_leaves_its_nominal_path() {
                 refused += 1;
                 let mut t = Tally::default();
                 match run_one(&ungated, &eval, program, &mut t) {
-                    Outcome::Failed(..) => gate.0 += 1,
+                    Outcome::Failed(f, _) => {
+                        gate.0 += 1;
+                        *gate_kinds.entry(f.kind).or_default() += 1;
+                    }
                     Outcome::Passed => {
                         gate.1 += 1;
                         gate_only_example.get_or_insert_with(|| program.clone());
@@ -1416,6 +1428,9 @@ fn no_accepted_output_leaves_its_nominal_path() {
         gate.1,
         gate.2
     );
+    for (kind, n) in &gate_kinds {
+        eprintln!("  refused by the gate, off the path here too {n:>4}: {kind}");
+    }
     if let Some((line, n)) = tally.unknown_rapid_at {
         eprintln!(
             "  (the first rapid at unknown axes with corrected words: {:?}, line {} of program {n})",
@@ -1702,4 +1717,20 @@ fn the_judge_finds_hand_broken_outputs() {
         unmarked,
         "a piece of an optional block not optional",
     );
+}
+
+/// Defect (over-refusal): the shipped fixture's kept arcs (N60, N70 at A0) are refused by
+/// the gate ("strays 0.001771 mm"): the gate holds the real tip at each fraction of the
+/// written arc against the nominal tip at the same fraction, which counts a lag along the
+/// path; the real tip's distance from the nominal path is 0.91 µm, within the 1 µm
+/// tolerance (this file's judge). The campaign counts such refusals.
+#[test]
+#[ignore = "defect: the gate refuses kept arcs that stay on the path"]
+fn the_arcs_fixture_is_compensated() {
+    let s = setup();
+    let comp = Compensator::new(&s.machine, &s.errors, cli_options()).unwrap();
+    let src = common::contract::fixture("ac_trunnion_arcs.nc");
+    let mut out = Vec::new();
+    comp.run(src.as_bytes(), "ac_trunnion_arcs.nc", &mut out)
+        .unwrap();
 }
