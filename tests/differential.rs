@@ -920,7 +920,10 @@ fn generated(rng: &mut Lcg) -> String {
         -60.0 * rng.next(),
         rng.sym(120.0),
     ];
-    let f = |v: f64| format!("{v:.4}");
+    // Four decimals, or three as some posts write.
+    let decimals = if rng.next() < 0.3 { 3 } else { 4 };
+    let scale = 10f64.powi(decimals as i32);
+    let f = |v: f64| format!("{v:.decimals$}");
     s += &format!(
         "G0 X{} Y{} Z{} A{} C{}\n",
         f(q[0]),
@@ -956,14 +959,21 @@ fn generated(rng: &mut Lcg) -> String {
                 let phi = rng.sym(std::f64::consts::PI);
                 let c = [q[u] - r * phi.cos(), q[v] - r * phi.sin()];
                 let ccw = rng.next() < 0.5;
-                let sweep = (0.05 + 6.2 * rng.next()) * if ccw { 1.0 } else { -1.0 };
+                // Sweeps of every size, and the hard ones: a few µm of chord, nearly a full
+                // turn.
+                let size = match pick(rng, 5) {
+                    0 => 1e-4 + 0.02 * rng.next(),
+                    1 => TAU - 1e-4 - 0.02 * rng.next(),
+                    _ => 0.05 + 6.2 * rng.next(),
+                };
+                let sweep = size * if ccw { 1.0 } else { -1.0 };
                 let e = [
                     c[0] + r * (phi + sweep).cos(),
                     c[1] + r * (phi + sweep).sin(),
                 ];
                 let start = q;
-                q[u] = (e[0] * 1e4).round() / 1e4;
-                q[v] = (e[1] * 1e4).round() / 1e4;
+                q[u] = (e[0] * scale).round() / scale;
+                q[v] = (e[1] * scale).round() / scale;
                 let mut line = format!(
                     "{} {}{} {}{}",
                     if ccw { "G3" } else { "G2" },
@@ -1000,8 +1010,12 @@ fn generated(rng: &mut Lcg) -> String {
             4 => {
                 let k = pick(rng, 3);
                 let d = rng.sym(10.0);
-                q[k] += (d * 1e4).round() / 1e4;
-                s += &format!("G91 G1 {}{}\nG90\n", AXES[k], f((d * 1e4).round() / 1e4));
+                q[k] += (d * scale).round() / scale;
+                s += &format!(
+                    "G91 G1 {}{}\nG90\n",
+                    AXES[k],
+                    f((d * scale).round() / scale)
+                );
             }
             _ => {
                 q[2] += 10.0;

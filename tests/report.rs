@@ -107,7 +107,14 @@ fn the_map_of_a_constant_positioning_error_is_uniform_along_its_axis() {
         at: vec!["Z=5".into()],
         ..options.clone()
     };
-    let r = report::build(&machine, &errors, b"G0 X1 Y0 Z0\nG1 X2\n", Names::default(), &one).unwrap();
+    let r = report::build(
+        &machine,
+        &errors,
+        b"G0 X1 Y0 Z0\nG1 X2\n",
+        Names::default(),
+        &one,
+    )
+    .unwrap();
     assert_eq!(r.maps[0].panels.len(), 1);
     assert_eq!(r.maps[0].panels[0].level, Some(("Z".into(), 5.0)));
     let bad = Options {
