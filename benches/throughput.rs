@@ -1,8 +1,10 @@
 //! Throughput with the options users run (issue 26): 300,000 random five-axis finishing
 //! moves (benches/common/random.rs) on the AC trunnion with a full random calibration,
 //! compensated in memory as `nccomp compensate` streams a file, with the command line's
-//! default options and with each of `--threads 1` and `--tolerance off`; gcode-rs parsing
-//! the same text beside them, as the anchor.
+//! default options and with each of `--threads 1` and `--tolerance off`, and with the
+//! verification gate that `nccomp compensate` runs on every output (the written program
+//! read back and held against the original); gcode-rs parsing the same text beside them,
+//! as the anchor.
 //!
 //!     cargo bench --bench throughput
 //!
@@ -12,6 +14,8 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use nccomp::compensate::{Compensator, Options};
 use nccomp::kinematics::path::PathTolerance;
 use nccomp::model::{error_file, machine_file};
+use nccomp::nc::Dialect;
+use nccomp::verify::Text;
 use std::hint::black_box;
 use std::path::Path;
 
@@ -66,6 +70,40 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    // What `nccomp compensate` does with the defaults: the pass, then the gate.
+    let comp = Compensator::new(
+        &machine,
+        &errors,
+        Options {
+            path: Some(PathTolerance::default()),
+            threads: 2,
+            ..Options::default()
+        },
+    )
+    .unwrap();
+    group.bench_function("default, verified (nccomp compensate)", |b| {
+        let mut out = Vec::with_capacity(src.len() * 2);
+        b.iter(|| {
+            out.clear();
+            comp.run_stream(black_box(&src[..]), "bench.nc", &mut out, "out")
+                .unwrap();
+            let verdict = comp
+                .verify(
+                    Text {
+                        name: "bench.nc",
+                        src: &src,
+                    },
+                    Text {
+                        name: "out",
+                        src: &out,
+                    },
+                    Dialect::Iso,
+                )
+                .unwrap();
+            assert!(verdict.passed());
+            verdict.moves
+        })
+    });
     group.bench_function("gcode-rs 0.7: parse to a Program (AST)", |b| {
         b.iter(|| gcode::parse(black_box(text)).map(|p| p.blocks.len()))
     });

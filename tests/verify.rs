@@ -206,7 +206,7 @@ fn verify_passes_on_outputs_and_finds_a_hand_broken_word_in_each_dialect() {
         (
             "ac_trunnion",
             "fixtures/tnc_ac_trunnion.h",
-            "L X+0 Y+0 Z+250",
+            "Z+250 R0 FMAX",
             'Z',
         ),
         ("ac_trunnion", "fixtures/840d_variables.mpf", "N150 ", 'Z'),

@@ -34,6 +34,23 @@ impl Mode for AxesMode {
             state.previous = state.pos.nominal;
         }
         self.start_known = state.pos.programmed & !state.pos.unknown;
+        // A feed move cuts from where the axes stand: an axis whose place is not known
+        // before it (even one the block sets) leaves the cut's start unknown.
+        let unknown_before = state.pos.unknown & !(pass.spindle | pass.idle);
+        if !state.modal.rapid && unknown_before != 0 {
+            let n = pass.kin.len();
+            let names: Vec<&str> = (0..n)
+                .filter(|&v| unknown_before & (1 << v) != 0)
+                .map(|v| pass.axis_name(v))
+                .collect();
+            return Err(cx.refuse(
+                cx.first_col(),
+                format!(
+                    "a feed move while axis {} stands where the program has not set it (at the start, or after G28, G30, G53, a machine move or a tool change): where the real tool cuts is not known (expected a rapid G0 that sets every axis before the first feed move)",
+                    names.join(", ")
+                ),
+            ));
+        }
         Self::advance(b)?;
         let (pass, cx, state, out) = b.parts();
         let n = pass.kin.len();

@@ -197,6 +197,17 @@ impl Mode for TcpMode {
         let rotary_unknown = (0..n)
             .filter(|&v| rotary & (1 << v) != 0 && state.pos.unknown & (1 << v) != 0 && !given(v))
             .fold(0u32, |m, v| m | 1 << v);
+        if state.modal.tcp_vector
+            && let Some((v, i)) = cx.word_outside(n, &tips)
+        {
+            return Err(cx.refuse(
+                cx.col(i),
+                format!(
+                    "{} is a rotary word; under G43.5 the tool direction is programmed by I, J, K (expected X, Y, Z, I, J, K)",
+                    pass.letter(v) as char
+                ),
+            ));
+        }
         let start_unknown = state.pos.unknown != 0;
         if start_unknown && (!tip_given || (rotary_unknown != 0 && !vector_given)) {
             return Err(cx.refuse(
@@ -217,15 +228,6 @@ impl Mode for TcpMode {
             return Err(cx.refuse(
                 first,
                 "arcs under G43.5 cannot be compensated: I, J, K are the tool vector there (program the arc as G1 moves, or under G43.4)".into(),
-            ));
-        }
-        if vector && let Some((v, i)) = cx.word_outside(n, &tips) {
-            return Err(cx.refuse(
-                cx.col(i),
-                format!(
-                    "{} is a rotary word; under G43.5 the tool direction is programmed by I, J, K (expected X, Y, Z, I, J, K)",
-                    pass.letter(v) as char
-                ),
             ));
         }
         let to_mm = |x: f64| if state.modal.inch { x * INCH } else { x };

@@ -64,7 +64,9 @@ pub struct Step {
     pub vector: Option<([f64; 3], [f64; 3])>,
 }
 
-/// What the gate reads of one block.
+/// What the gate reads of one block. (Items are made and used one at a time: boxing the
+/// move would allocate per block for nothing.)
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy)]
 pub enum Item {
     Move(Step),
@@ -98,10 +100,12 @@ impl<'m> Follower<'m> {
     ) -> Self {
         let mut modal = Modal::start(machine, chain);
         modal.for_program(dialect, src);
-        let mut pos = crate::program::axes::Positions::default();
         // An axis the program has not set stands where the control left it: not known,
         // unless the machine file gives the set-up's start position.
-        pos.unknown = (1u32 << machine.variables(chain).len()) - 1;
+        let mut pos = crate::program::axes::Positions {
+            unknown: (1u32 << machine.variables(chain).len()) - 1,
+            ..Default::default()
+        };
         for (v, &axis) in machine.variables(chain).iter().enumerate() {
             if let Some(&(_, value)) = machine.start.iter().find(|(a, _)| *a == axis) {
                 pos.unknown &= !(1 << v);
