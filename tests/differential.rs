@@ -455,12 +455,11 @@ const TOOL_CHANGE_FEED: &str = "a feed move with Z unknown after a tool change w
 const TOOL_CHANGE_RAPID: &str =
     "a rapid with Z unknown after a tool change is given a Z word (issue 34 item 5)";
 const OPTIONAL_RAPID: &str = "an optional rapid that sets unknown axes again is left uncorrected: with block delete off its end is off the nominal pose";
-const KNOWN: &[&str] = &[
-    FEED_FROM_UNKNOWN,
-    TOOL_CHANGE_FEED,
-    TOOL_CHANGE_RAPID,
-    OPTIONAL_RAPID,
-];
+// OPTIONAL_RAPID: an optional rapid that sets axes nccomp takes as unknown (with block
+// delete on it does not run) is written unchanged, as the contract has rapids with unknown
+// axes pass; with block delete off its end is uncorrected in the air, and a feed move from
+// there is refused by the pass (`a_feed_move_from_an_unknown_axis_is_refused`).
+const KNOWN: &[&str] = &[TOOL_CHANGE_FEED, TOOL_CHANGE_RAPID, OPTIONAL_RAPID];
 
 struct Eval {
     kin: Kinematics,
@@ -1566,7 +1565,6 @@ fn refused_or_on_the_path(program: &str) {
 /// feed move with an unknown axis. Its cut starts from the uncorrected pose the rapid
 /// before it left (the next test shows the size, ~20 µm).
 #[test]
-#[ignore = "defect: a feed move from an unknown axis is accepted"]
 fn a_feed_move_from_an_unknown_axis_is_refused() {
     refused_or_on_the_path("G21 G90 G17\nG0 X100. Y80. A-30. C45.\nG1 Z6. F900\nM30\n");
 }
@@ -1576,7 +1574,6 @@ fn a_feed_move_from_an_unknown_axis_is_refused() {
 /// delete off it runs, ends ~20 µm off its nominal pose, and the feed move after it is
 /// corrected at its end only (with block delete on it is a feed from an unknown Z).
 #[test]
-#[ignore = "defect: an optional rapid that makes axes known again is left uncorrected"]
 fn an_optional_rapid_after_g28_is_corrected_or_refused() {
     refused_or_on_the_path(
         "G21 G90 G17\nG0 X10. Y10. Z40. A-20. C15.\nG91 G28 Z0\nG90 G0 X0 Y0\n/G0 Z30.\nG1 Z6. F900\nM30\n",
@@ -1704,15 +1701,20 @@ fn the_judge_finds_hand_broken_outputs() {
             broken(src, edit(good, i, Some(new)), "G3 as G2");
             arcs += 1;
         }
-        // Five pieces dropped from a run of inserted ones.
+        // Five pieces dropped from a run of inserted ones (of an arc: five pieces of a
+        // split straight move may still lie on its path, so a run whose loss the judge
+        // finds is counted).
         let original: std::collections::HashSet<&str> = src.lines().collect();
         let mut run = 0;
         for (i, l) in lines.iter().enumerate() {
             run = if original.contains(l) { 0 } else { run + 1 };
             if run == 30 {
-                broken(src, edit(good, i - 20, None), "pieces dropped");
-                pieces += 1;
-                break;
+                let mut t = Tally::default();
+                if judge(&eval, src, &edit(good, i - 20, None), &mut t).is_err() {
+                    pieces += 1;
+                    break;
+                }
+                run = 0;
             }
         }
     }
@@ -1756,7 +1758,6 @@ fn the_judge_finds_hand_broken_outputs() {
 /// path; the real tip's distance from the nominal path is 0.91 µm, within the 1 µm
 /// tolerance (this file's judge). The campaign counts such refusals.
 #[test]
-#[ignore = "defect: the gate refuses kept arcs that stay on the path"]
 fn the_arcs_fixture_is_compensated() {
     let s = setup();
     let comp = Compensator::new(&s.machine, &s.errors, cli_options()).unwrap();
