@@ -1158,6 +1158,7 @@ def gen_program(rng, blocks, hnums, seed):
     nline(f"G0 {words} A0 C0")
     q.update({ax: float(num(first[ax], 4)) for ax in "XYZ"})
     mode = 0
+    after_length = False
     for _ in range(blocks - 1):
         r = rng.random()
         if r < 0.05:
@@ -1169,11 +1170,18 @@ def gen_program(rng, blocks, hnums, seed):
         if hnums and r < 0.10:
             h = rng.choice(hnums)
             nline(f"G43 H{h}" if rng.random() < 0.8 else "G49")
+            # A length change at rest moves the nominal tip: a post positions the tool
+            # with a rapid before it cuts again (nccomp refuses a feed move from there).
+            after_length = True
             continue
         k = rng.randint(1, 5)
         axes = rng.sample("XYZAC", k)
         parts = []
-        if rng.random() < 0.3 or mode == 0 and rng.random() < 0.5:
+        if after_length:
+            mode = 0
+            parts.append("G0")
+            after_length = False
+        elif rng.random() < 0.3 or mode == 0 and rng.random() < 0.5:
             mode = 1 - mode if rng.random() < 0.6 else mode
             parts.append(f"G{mode}")
         for ax in "XYZAC":

@@ -426,6 +426,7 @@ impl<'m> Gate<'m> {
         // After a stretch the gate does not follow, the written program is taken up again
         // at the first written move that ends where the original's next move ends.
         let mut in_gap = false;
+        let mut last_length: Option<f64> = None;
         while let Some(item) = orig.take() {
             if verdict.findings.len() >= 20 {
                 return;
@@ -504,7 +505,11 @@ impl<'m> Gate<'m> {
                     }
                     verdict.moves += 1;
                     verdict.written_moves += pieces.len();
-                    for (w_line, text) in self.judge_move(&o, &pieces, verdict) {
+                    // A tool-length change at rest moves the nominal tip: the move then
+                    // starts from a pose no earlier end was judged at.
+                    let changed = last_length.is_some_and(|l: f64| l != o.mv.tool_length);
+                    last_length = Some(o.mv.tool_length);
+                    for (w_line, text) in self.judge_move(&o, &pieces, changed, verdict) {
                         finding(verdict, w_line, o.mv.line, format!("{text}{state}"));
                     }
                 }
@@ -681,8 +686,29 @@ impl<'m> Gate<'m> {
 
     /// Judge the written pieces of original move `o`: the messages of what is off, with
     /// the written line each is at.
-    fn judge_move(&self, o: &Step, pieces: &[Step], verdict: &mut Verdict) -> Vec<(usize, String)> {
+    fn judge_move(
+        &self,
+        o: &Step,
+        pieces: &[Step],
+        check_start: bool,
+        verdict: &mut Verdict,
+    ) -> Vec<(usize, String)> {
         let mut found = Vec::new();
+        if check_start
+            && let (Some(os), Some(w)) = (o.mv.start, pieces.first())
+            && let Some(ws) = w.mv.start
+        {
+            let off = (self.real_at(w, &ws).p - self.nominal_at(o, &os).p).norm();
+            if off > self.tolerances.end_position {
+                found.push((
+                    w.mv.line,
+                    format!(
+                        "this move starts {off:.4} mm off the nominal path of the original's move at line {}: the tool length changed while the axes stood, and the real tool is not where the nominal one now is (expected a positioning move after the change; tolerance {:.6} mm)",
+                        o.mv.line, self.tolerances.end_position
+                    ),
+                ));
+            }
+        }
         let n = self.kin(o.chain, o.shift).len();
         let held = self.rotary_as_programmed(o, pieces.last().unwrap_or(o));
         let tol = self.tolerances;
@@ -690,6 +716,7 @@ impl<'m> Gate<'m> {
         // they come nearest the nominal path.
         let mut s_prev = 0.0;
         let mut ends = Vec::with_capacity(pieces.len());
+        let mut end_devs: Vec<f64> = Vec::with_capacity(pieces.len());
         for (k, w) in pieces.iter().enumerate() {
             let real = self.real_at(w, &w.mv.end);
             let landing = if k + 1 == pieces.len() {
@@ -701,9 +728,13 @@ impl<'m> Gate<'m> {
             } else {
                 self.landing(o, &real, &w.mv.end, s_prev, n)
             };
+            // A split move's inner ends may swing a rotary axis across the singular cone
+            // (the pass holds it there by design): the direction is judged at the move's
+            // end, and between ends of a move written whole.
+            let last = k + 1 == pieces.len();
             let direction = {
                 let q = o.mv.at(landing.s, n);
-                if !held && self.direction_judged(o, &q) {
+                if last && !held && self.direction_judged(o, &q) {
                     angle_between(&real.o, &self.nominal_at(o, &q).o)
                 } else {
                     0.0
@@ -735,6 +766,7 @@ impl<'m> Gate<'m> {
                 ));
             }
             ends.push((s_prev, landing.s));
+            end_devs.push(landing.position);
             s_prev = landing.s;
         }
         // Between block ends: feed moves whose starts are known.
@@ -744,7 +776,7 @@ impl<'m> Gate<'m> {
         if o.rapid || o.mv.start.is_none() {
             return found;
         }
-        for (w, &(s0, s1)) in pieces.iter().zip(&ends) {
+        for (k, (w, &(s0, s1))) in pieces.iter().zip(&ends).enumerate() {
             if w.mv.start.is_none() || w.rapid {
                 continue;
             }
@@ -771,7 +803,7 @@ impl<'m> Gate<'m> {
                 let target = self.nominal_at(o, &q_o);
                 let dp = (real.p - target.p).norm().min((real.p - at_guess.p).norm());
                 worst_p = worst_p.max(dp);
-                if !held && self.direction_judged(o, &q_o) {
+                if !held && pieces.len() == 1 && self.direction_judged(o, &q_o) {
                     // Either reading, as for the position.
                     worst_d = worst_d.max(
                         angle_between(&real.o, &target.o).min(angle_between(&real.o, &at_guess.o)),
@@ -780,7 +812,21 @@ impl<'m> Gate<'m> {
             }
             verdict.path_position.update(worst_p, w.mv.line, o.mv.line);
             verdict.path_direction.update(worst_d, w.mv.line, o.mv.line);
-            if worst_p > path_p {
+            // What the piece's ends leave (each judged above) is the floor under its
+            // path: halving cannot take the path below it. The path may stray the
+            // tolerance beyond it (as the pass's split check holds it).
+            let floor = |this: &Self| {
+                let start = if k == 0 {
+                    let (Some(ws), Some(os)) = (w.mv.start, o.mv.start) else {
+                        return 0.0;
+                    };
+                    (this.real_at(w, &ws).p - this.nominal_at(o, &os).p).norm()
+                } else {
+                    end_devs[k - 1]
+                };
+                start.max(end_devs[k]) - Tolerances::rounding(this.machine)
+            };
+            if worst_p > path_p && worst_p > path_p + floor(self).max(0.0) {
                 found.push((
                     w.mv.line,
                     format!(
