@@ -209,7 +209,9 @@ fn no_word_is_added_for_an_axis_the_program_has_not_set() {
     // ... and a feed move, whose real path is not known, is refused.
     let err = compensate("G21 G90\nG1 X100.5 Y20. F500.\nX50.\n").unwrap_err();
     assert!(
-        err.contains("p.nc:2:4: a feed move while axis Z, A, C stands where the program has not set it"),
+        err.contains(
+            "p.nc:2:4: a feed move while axis Z, A, C stands where the program has not set it"
+        ),
         "{err}"
     );
     // Once set, an axis takes its share of the correction.

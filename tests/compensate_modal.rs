@@ -555,7 +555,9 @@ fn an_axis_moved_in_g91_before_the_program_set_it_stays_unknown() {
     assert_eq!(summary.uncompensated_blocks, 2, "{summary}");
     let err = compensate("G91 G1 X10. Y5. Z-2. A-30. C5.\nX1.\n").unwrap_err();
     assert!(
-        err.contains("p.nc:1:8: a feed move while axis X, Y, Z, A, C stands where the program has not set it"),
+        err.contains(
+            "p.nc:1:8: a feed move while axis X, Y, Z, A, C stands where the program has not set it"
+        ),
         "{err}"
     );
 }

@@ -56,7 +56,8 @@ fn s(p: &Path) -> &str {
 
 /// The arc of the issue: a short G3 whose centre, fitted to rounded ends, can land across
 /// the chord.
-const SHORT_ARC: &str = "G90 G17 G21\nG0 X122.439 Y143.682 Z40.\nG3 X122.223 Y143.75 I-5.24 J-16.476 F250\nM30\n";
+const SHORT_ARC: &str =
+    "G90 G17 G21\nG0 X122.439 Y143.682 Z40.\nG3 X122.223 Y143.75 I-5.24 J-16.476 F250\nM30\n";
 
 #[test]
 fn a_mirrored_arc_fails_verify_at_its_line() {
@@ -158,7 +159,12 @@ fn compensate_and_verify(dir: &Path, machine: &str, program: &str) -> PathBuf {
         stderr(&out)
     );
     let check = nccomp(&["verify", "-m", &m, "-e", &e, program, s(&output)]);
-    assert_eq!(check.status.code(), Some(0), "{program}: {}", stdout(&check));
+    assert_eq!(
+        check.status.code(),
+        Some(0),
+        "{program}: {}",
+        stdout(&check)
+    );
     output
 }
 
@@ -197,7 +203,12 @@ fn verify_passes_on_outputs_and_finds_a_hand_broken_word_in_each_dialect() {
     let dir = scratch("verify-dialects");
     for (machine, program, marker, letter) in [
         ("ac_trunnion", "fixtures/feature_workpiece.nc", "N190 ", 'X'),
-        ("ac_trunnion", "fixtures/tnc_ac_trunnion.h", "L X+0 Y+0 Z+250", 'Z'),
+        (
+            "ac_trunnion",
+            "fixtures/tnc_ac_trunnion.h",
+            "L X+0 Y+0 Z+250",
+            'Z',
+        ),
         ("ac_trunnion", "fixtures/840d_variables.mpf", "N150 ", 'Z'),
     ] {
         let output = compensate_and_verify(&dir, machine, program);
@@ -210,9 +221,22 @@ fn verify_passes_on_outputs_and_finds_a_hand_broken_word_in_each_dialect() {
         let m = format!("fixtures/{machine}.machine.toml");
         let e = format!("fixtures/{machine}.errors.toml");
         let check = nccomp(&["verify", "-m", &m, "-e", &e, program, s(&broken)]);
-        assert_eq!(check.status.code(), Some(1), "{program}: {}", stdout(&check));
+        assert_eq!(
+            check.status.code(),
+            Some(1),
+            "{program}: {}",
+            stdout(&check)
+        );
         let json = nccomp(&[
-            "verify", "-m", &m, "-e", &e, program, s(&broken), "--format", "json",
+            "verify",
+            "-m",
+            &m,
+            "-e",
+            &e,
+            program,
+            s(&broken),
+            "--format",
+            "json",
         ]);
         let doc: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
         assert_eq!(doc["status"], "findings");
@@ -241,7 +265,16 @@ fn an_optional_move_is_judged_in_both_block_delete_states() {
     let m = "fixtures/ac_trunnion.machine.toml";
     let e = "fixtures/ac_trunnion.errors.toml";
     let output = dir.join("optional.comp.nc");
-    let out = nccomp(&["compensate", "-m", m, "-e", e, s(&program), "-o", s(&output)]);
+    let out = nccomp(&[
+        "compensate",
+        "-m",
+        m,
+        "-e",
+        e,
+        s(&program),
+        "-o",
+        s(&output),
+    ]);
     match out.status.code() {
         Some(0) => {
             // Right in both states, and said so.

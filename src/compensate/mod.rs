@@ -420,16 +420,22 @@ impl<'m> Compensator<'m> {
     /// The refusal of a program whose own prediction after compensation leaves the tip
     /// further from the nominal one than the gate's end tolerance: such a program must
     /// not pass as compensated, whether or not the gate follows the block.
-    pub fn predicted_beyond(&self, summary: &Summary, path: &str, src: &[u8]) -> Option<Diagnostic> {
+    pub fn predicted_beyond(
+        &self,
+        summary: &Summary,
+        path: &str,
+        src: &[u8],
+    ) -> Option<Diagnostic> {
         let options = &self.passes[0].options;
         let tolerances = crate::verify::Tolerances::new(
             self.machine,
             options.path.map(|t| (t.position, t.direction)),
         );
         let worst = summary.after_position;
-        let held_linear = self.passes.iter().any(|p| {
-            (0..p.kin.len()).any(|v| p.is_linear(v) && p.hold & !p.idle & (1 << v) != 0)
-        });
+        let held_linear = self
+            .passes
+            .iter()
+            .any(|p| (0..p.kin.len()).any(|v| p.is_linear(v) && p.hold & !p.idle & (1 << v) != 0));
         if summary.zero_model || held_linear || worst.value <= tolerances.end_position {
             return None;
         }

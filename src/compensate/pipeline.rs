@@ -268,6 +268,12 @@ impl Pass<'_> {
             self.leave_coordinates(cx, state);
             return Ok(());
         }
+        if state.modal.length.is_nan() {
+            return Err(cx.refuse(
+                cx.first_col(),
+                "the length of the tool in the spindle is not known here: a tool length (D) was switched on before the program selected a tool, and where the tip is, and so the correction, depends on it (expected T with the tool's number or name, then D, before the first move that is compensated)".into(),
+            ));
+        }
         if cx.motion.kind == MoveKind::ToPlane {
             return self.to_plane(cx, state, out);
         }
