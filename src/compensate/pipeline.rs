@@ -274,6 +274,21 @@ impl Pass<'_> {
                 "the length of the tool in the spindle is not known here: a tool length (D) was switched on before the program selected a tool, and where the tip is, and so the correction, depends on it (expected T with the tool's number or name, then D, before the first move that is compensated)".into(),
             ));
         }
+        // (A shift set back to zero under a plane leaves a rounding residue: not a shift.)
+        if self.machine.work_offsets.is_none()
+            && state.modal.local_shift.iter().any(|x| x.abs() > 1e-9)
+        {
+            // Without a work offset table G52 is refused; a datum shift of the other
+            // dialects outside a tilted plane is refused the same way, where it would
+            // first move the tool.
+            let [x, y, z] = state.modal.local_shift;
+            return Err(cx.refuse(
+                cx.first_col(),
+                format!(
+                    "a datum shift (CYCL DEF 7, TRANS/ATRANS) of X{x} Y{y} Z{z} is in force outside a tilted working plane, and the machine file has no [work_offsets]: where program zero lies is not followed without one, as for G52 (expected [work_offsets] in the machine file, the shift under a PLANE, or the shift cancelled before this move)"
+                ),
+            ));
+        }
         if cx.motion.kind == MoveKind::ToPlane {
             return self.to_plane(cx, state, out);
         }
