@@ -220,3 +220,45 @@ fn named_lengths_are_read_from_the_machine_file() {
         .to_string();
     assert!(err.contains("the length of tool \"X\""), "{err}");
 }
+
+// ---------------------------------------------------------------------------------------
+// Case 17: a length change at rest moves the nominal tip, not the machine.
+
+#[test]
+fn a_feed_move_right_after_a_length_change_at_rest_is_refused() {
+    let (m, e) = machine("change_moves = []");
+    for (name, program, needle) in [
+        (
+            "p.nc",
+            "G90 G21\nG0 X0 Y0 Z50. A-10. C0\nG43 H2\nG1 X10. F500.\n",
+            "p.nc:4:4: a feed move right after the tool length changed with the axes standing",
+        ),
+        (
+            "p.mpf",
+            "G90 G710\nT1 M6\nD1\nG0 X0 Y0 Z50 A-10 C0\nD0\nG1 X10 F500\n",
+            "p.mpf:6:4: a feed move right after the tool length changed with the axes standing",
+        ),
+        (
+            "p.h",
+            "0 BEGIN PGM P MM\n1 TOOL CALL 1 Z S5000\n2 L X+0 Y+0 Z+50 A-10 C+0 R0 FMAX\n3 TOOL CALL 2 Z S5000\n4 L X+10 R0 F500\n5 END PGM P MM\n",
+            "p.h:5:5: a feed move right after the tool length changed with the axes standing",
+        ),
+    ] {
+        let err = run(&m, &e, name, program).unwrap_err();
+        assert!(err.contains(needle), "{program}: {err}");
+    }
+    // A rapid after the change positions the tool: the feed move after it is compensated.
+    for (name, program) in [
+        (
+            "p.nc",
+            "G90 G21\nG0 X0 Y0 Z50. A-10. C0\nG43 H2\nG0 X0 Y0 Z40.\nG1 X10. F500.\n",
+        ),
+        (
+            "p.h",
+            "0 BEGIN PGM P MM\n1 TOOL CALL 1 Z S5000\n2 L X+0 Y+0 Z+50 A-10 C+0 R0 FMAX\n3 TOOL CALL 2 Z S5000\n4 L Z+40 R0 FMAX\n5 L X+10 R0 F500\n6 END PGM P MM\n",
+        ),
+    ] {
+        let out = run(&m, &e, name, program).unwrap_or_else(|err| panic!("{program}: {err}"));
+        assert_ne!(out, program);
+    }
+}

@@ -213,6 +213,9 @@ struct State {
     /// The deviation the last block left at its end: the start of the next move's path
     /// check, known without evaluating it again.
     end: Option<EndDeviation>,
+    /// The tool length the last block that moved ran with: a feed move under another
+    /// (a length changed with the axes standing) would start off the pose it needs.
+    moved_length: f64,
 }
 
 /// The deviation the real machine has at the axis values `told` from the nominal pose at
@@ -506,8 +509,10 @@ impl<'m> Compensator<'m> {
                 0
             };
         let first = &self.passes[pass];
+        let modal = Modal::start(self.machine, self.start);
         let mut state = State {
-            modal: Modal::start(self.machine, self.start),
+            moved_length: modal.length,
+            modal,
             pass,
             parked: vec![None; self.machine.axes.len()],
             last_n: None,

@@ -264,6 +264,20 @@ impl Pass<'_> {
         state: &mut State,
         out: &mut Out<'_>,
     ) -> Result<(), Diagnostic> {
+        // A tool length changed with the axes standing moves the nominal tip, not the
+        // machine: a feed move from there would start off the real pose it needs.
+        let feed = !state.modal.rapid
+            && matches!(cx.motion.kind, MoveKind::Program | MoveKind::Arc { .. });
+        if feed
+            && state.moved_length.to_bits() != state.modal.length.to_bits()
+            && state.pos.unknown & !(self.spindle | self.idle) == 0
+        {
+            return Err(cx.refuse(
+                cx.first_col(),
+                "a feed move right after the tool length changed with the axes standing (G43/G49, D, TOOL CALL): the tip the control now assumes is not where the machine stands, and the move would start off the pose it needs (expected a rapid G0 positioning move after the change)".into(),
+            ));
+        }
+        state.moved_length = state.modal.length;
         if matches!(cx.motion.kind, MoveKind::Machine | MoveKind::Home) {
             self.leave_coordinates(cx, state);
             return Ok(());
