@@ -179,13 +179,16 @@ pub struct Text<'a> {
     pub src: &'a [u8],
 }
 
+/// A shifted kinematics made by the gate: (chain, shift, kinematics).
+type Shifted = (usize, [f64; 3], std::rc::Rc<Kinematics>);
+
 /// The gate for one machine and error model.
 pub struct Gate<'m> {
     machine: &'m Machine,
     /// The kinematics of each tool chain (milling).
     chains: Vec<Kinematics>,
     /// Shifted kinematics made so far: (chain, shift, kinematics).
-    shifted: std::cell::RefCell<Vec<(usize, [f64; 3], std::rc::Rc<Kinematics>)>>,
+    shifted: std::cell::RefCell<Vec<Shifted>>,
     tolerances: Tolerances,
     /// Variables whose values the user holds (`--hold`), by chain.
     held: Vec<u32>,

@@ -57,8 +57,9 @@ pub struct Step {
     pub rapid: bool,
 }
 
-/// What the gate reads of one block.
+/// What the gate reads of one block. (Copied once a block: the move's size is its data.)
 #[derive(Debug, Clone, Copy)]
+#[allow(clippy::large_enum_variant)]
 pub enum Item {
     Move(Step),
     Gap { kind: GapKind, line: usize },
@@ -89,9 +90,11 @@ impl<'m> Follower<'m> {
     ) -> Self {
         let mut modal = Modal::start(machine, chain);
         modal.for_program(dialect, src);
-        let mut pos = crate::program::axes::Positions::default();
         // An axis the program has not set stands where the control left it: not known.
-        pos.unknown = !0;
+        let pos = crate::program::axes::Positions {
+            unknown: !0,
+            ..Default::default()
+        };
         Follower {
             machine,
             reader: Reader::new(machine),
