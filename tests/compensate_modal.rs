@@ -1018,10 +1018,10 @@ fn a_rollover_axis_is_split_the_shortest_way_to_its_word() {
     let err = run(
         &m,
         &errors,
-        "G21 G90\nG0 X20. Y10. Z30. A-30. C170.\nG43.4 H1\nG1 X20. Y10. Z30. A-30. C-170. F500.\n",
+        "G21 G90\nG0 X20. Y10. Z30. A-30. C170.\nG43.4 H1\nG0 X20. Y10. Z30. A-30. C170.\nG1 X20. Y10. Z30. A-30. C-170. F500.\n",
     )
     .unwrap_err();
-    assert!(err.contains("p.nc:4:"), "{err}");
+    assert!(err.contains("p.nc:5:"), "{err}");
     assert!(
         err.contains("rollover axis C turns half a turn or more"),
         "{err}"

@@ -220,6 +220,9 @@ struct State {
     /// (G2/G3): the next arc kept as an arc must carry its own G2/G3, modal in the
     /// original or not.
     straightened: bool,
+    /// The tool length the last block that moved ran with: a feed move under another
+    /// (a length changed with the axes standing) would start off the pose it needs.
+    moved_length: f64,
 }
 
 /// The deviation the real machine has at the axis values `told` from the nominal pose at
@@ -514,8 +517,10 @@ impl<'m> Compensator<'m> {
                 0
             };
         let first = &self.passes[pass];
+        let modal = Modal::start(self.machine, self.start);
         let mut state = State {
-            modal: Modal::start(self.machine, self.start),
+            moved_length: modal.length,
+            modal,
             pass,
             parked: vec![None; self.machine.axes.len()],
             last_n: None,

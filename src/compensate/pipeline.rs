@@ -264,9 +264,44 @@ impl Pass<'_> {
         state: &mut State,
         out: &mut Out<'_>,
     ) -> Result<(), Diagnostic> {
+        // A tool length changed with the axes standing moves the nominal tip, not the
+        // machine: a feed move from there would start off the real pose it needs.
+        let feed = !state.modal.rapid
+            && matches!(cx.motion.kind, MoveKind::Program | MoveKind::Arc { .. });
+        if feed
+            && state.moved_length.to_bits() != state.modal.length.to_bits()
+            && state.pos.unknown & !(self.spindle | self.idle) == 0
+        {
+            return Err(cx.refuse(
+                cx.first_col(),
+                "a feed move right after the tool length changed with the axes standing (G43/G49, D, TOOL CALL): the tip the control now assumes is not where the machine stands, and the move would start off the pose it needs (expected a rapid G0 positioning move after the change)".into(),
+            ));
+        }
+        state.moved_length = state.modal.length;
         if matches!(cx.motion.kind, MoveKind::Machine | MoveKind::Home) {
             self.leave_coordinates(cx, state);
             return Ok(());
+        }
+        if state.modal.length.is_nan() {
+            return Err(cx.refuse(
+                cx.first_col(),
+                "the length of the tool in the spindle is not known here: a tool length (D) was switched on before the program selected a tool, and where the tip is, and so the correction, depends on it (expected T with the tool's number or name, then D, before the first move that is compensated)".into(),
+            ));
+        }
+        // (A shift set back to zero under a plane leaves a rounding residue: not a shift.)
+        if self.machine.work_offsets.is_none()
+            && state.modal.local_shift.iter().any(|x| x.abs() > 1e-9)
+        {
+            // Without a work offset table G52 is refused; a datum shift of the other
+            // dialects outside a tilted plane is refused the same way, where it would
+            // first move the tool.
+            let [x, y, z] = state.modal.local_shift;
+            return Err(cx.refuse(
+                cx.first_col(),
+                format!(
+                    "a datum shift (CYCL DEF 7, TRANS/ATRANS) of X{x} Y{y} Z{z} is in force outside a tilted working plane, and the machine file has no [work_offsets]: where program zero lies is not followed without one, as for G52 (expected [work_offsets] in the machine file, the shift under a PLANE, or the shift cancelled before this move)"
+                ),
+            ));
         }
         if cx.motion.kind == MoveKind::ToPlane {
             return self.to_plane(cx, state, out);

@@ -113,11 +113,6 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         Some(v) => resolution(&doc, v)?,
         None => Resolution::default(),
     };
-    let tool = match root.get("tool") {
-        Some(v) => tool(&doc, v)?,
-        None => Tool::default(),
-    };
-
     // Axes, in file order.
     let mut axes = Vec::new();
     let mut axis_keys: Vec<Range<usize>> = Vec::new();
@@ -128,6 +123,11 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
             axis_keys.push(key.span());
         }
     }
+
+    let tool = match root.get("tool") {
+        Some(v) => tool(&doc, v, &axes)?,
+        None => Tool::default(),
+    };
 
     // Chains: names → indices, each axis in at most one place.
     let mut used: Vec<Option<String>> = vec![None; axes.len()];
@@ -834,9 +834,16 @@ fn resolution(doc: &Doc, v: &Spanned<DeValue>) -> Result<Resolution> {
     Ok(r)
 }
 
-fn tool(doc: &Doc, v: &Spanned<DeValue>) -> Result<Tool> {
-    let t = doc.table(v, "[tool], a table with `length` and `lengths`")?;
-    doc.check_keys(t, &["length", "lengths"], "[tool]")?;
+fn tool(doc: &Doc, v: &Spanned<DeValue>, axes: &[Axis]) -> Result<Tool> {
+    let t = doc.table(
+        v,
+        "[tool], a table with `length`, `lengths`, `named_lengths` and `change_moves`",
+    )?;
+    doc.check_keys(
+        t,
+        &["length", "lengths", "named_lengths", "change_moves"],
+        "[tool]",
+    )?;
     let mut tool = Tool::default();
     let l = limits::LENGTH_MM;
     if let Some(v) = t.get("length") {
@@ -864,6 +871,52 @@ fn tool(doc: &Doc, v: &Spanned<DeValue>) -> Result<Tool> {
             )?;
             tool.lengths.insert(h, length);
         }
+    }
+    if let Some(v) = t.get("named_lengths") {
+        let table = doc.table(
+            v,
+            "tool `named_lengths`, a table of lengths by tool name such as `{ \"BALL D10\" = 95.3 }`",
+        )?;
+        for (key, value) in table.iter() {
+            let name = key.get_ref().to_string();
+            if name.is_empty() {
+                return Err(doc.err(
+                    key.span(),
+                    "an empty tool name in `named_lengths`: expected the name a program calls the tool by",
+                ));
+            }
+            let length = doc.number_in(
+                value,
+                &format!("the length of tool \"{name}\""),
+                Bounds::within(l, "mm"),
+            )?;
+            tool.named_lengths.insert(name, length);
+        }
+    }
+    if let Some(v) = t.get("change_moves") {
+        let what = "tool `change_moves`, the axes a tool change sends to the change position, such as [\"Z\"] ([] when it moves none)";
+        let array = v.get_ref().as_array().ok_or_else(|| {
+            doc.err(
+                v.span(),
+                format!("expected {what}, found {}", describe(v.get_ref())),
+            )
+        })?;
+        let mut letters = 0u32;
+        for e in array.iter() {
+            let text = doc.string(e, "an axis in `change_moves` of [tool]")?;
+            let Some(axis) = axes.iter().find(|a| a.name == text) else {
+                let known: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
+                return Err(doc.err(
+                    e.span(),
+                    format!(
+                        "`{text}` in `change_moves` of [tool] is not an axis of this machine (expected one of {})",
+                        known.join(", ")
+                    ),
+                ));
+            };
+            letters |= 1 << (axis.word as u8 - b'A');
+        }
+        tool.change_moves = letters;
     }
     Ok(tool)
 }

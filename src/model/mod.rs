@@ -173,11 +173,29 @@ impl Default for Resolution {
 }
 
 /// Tool lengths: the reference length the machine file's geometry was measured with,
-/// and the lengths of the tools a G43 H word can pick.
-#[derive(Debug, Clone, PartialEq, Default)]
+/// and the lengths of the tools a G43 H word can pick; what a tool change moves.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Tool {
     pub length: f64,
+    /// By number: G43 H, D with T, TOOL CALL n.
     pub lengths: BTreeMap<u32, f64>,
+    /// By name: TOOL CALL "name", T="name" (machine file `named_lengths`).
+    pub named_lengths: BTreeMap<String, f64>,
+    /// The program letters of the axes a tool change (M6, TOOL CALL) sends to the change
+    /// position, bit `letter - 'A'` (machine file `change_moves`; default Z): they are
+    /// unknown after the change, as after G28.
+    pub change_moves: u32,
+}
+
+impl Default for Tool {
+    fn default() -> Self {
+        Tool {
+            length: 0.0,
+            lengths: BTreeMap::new(),
+            named_lengths: BTreeMap::new(),
+            change_moves: 1 << (b'Z' - b'A'),
+        }
+    }
 }
 
 /// A machine: its axes, the workpiece chain and one or more tool chains.

@@ -646,6 +646,9 @@ impl Reader<'_> {
         let mut special: Option<MoveKind> = None;
         // The letters of the axes a machine file's code sends to machine positions.
         let mut homed_letters = 0u32;
+        // M6: the tool change sends the machine file's `change_moves` axes to the change
+        // position.
+        let mut tool_change: Option<usize> = None;
         let mut set_reference: Option<usize> = None;
         let mut returned: Option<usize> = None;
         let mut program_end = false;
@@ -918,7 +921,11 @@ impl Reader<'_> {
                     }
                 }
                 'M' => {
-                    match self.code(b'M', (number * 10.0).round() as i64) {
+                    let code10 = (number * 10.0).round() as i64;
+                    if code10 == 60 {
+                        tool_change = Some(t.span.start);
+                    }
+                    match self.code(b'M', code10) {
                         Code::Return => returned = Some(t.span.start),
                         // With block delete on, an optional end does not end the program.
                         Code::ProgramEnd if !optional => program_end = true,
@@ -1120,6 +1127,35 @@ impl Reader<'_> {
         }
         if let Some((g, _)) = motion_in_block {
             state.motion = Some(g);
+        }
+        if let Some(col) = tool_change {
+            let letters = self.machine.tool.change_moves;
+            let vars = (0..26u8)
+                .filter(|&l| letters & 1 << l != 0)
+                .filter_map(|l| words.var_of_letter[l as usize])
+                .fold(0u32, |m, v| m | 1 << v);
+            if vars != 0 {
+                if state.tcp {
+                    return Err(at(col, "M6 under tool-centre-point control cannot be compensated: the tool change moves the axes under the transformation (expected G49 before it)".into()));
+                }
+                if axis_words[..n].iter().any(Option::is_some) || arc_word.is_some() {
+                    let i = axis_words[..n].iter().flatten().next().copied();
+                    return Err(at(
+                        i.map_or(col, |i| tokens[i].span.start),
+                        "axis words with a tool change (M6) cannot be compensated: the change sends the tool axis to the change position (the machine file's [tool] change_moves), and where the words take the axes then is the control's rule (expected M6 in a block of its own)".into(),
+                    ));
+                }
+                match special {
+                    None => {
+                        special = Some(MoveKind::Home);
+                        homed_letters |= letters;
+                    }
+                    // A machine file's own machine move: both move their axes.
+                    Some(MoveKind::Home) if homed_letters != 0 => homed_letters |= letters,
+                    // G28/G30 without axis words: every axis goes home anyway.
+                    _ => {}
+                }
+            }
         }
         if state.motion == Some(Motion::Cycle)
             && (motion_in_block.is_some()

@@ -318,6 +318,16 @@ fn significant(content: &[u8], tokens: &[Token]) -> Vec<usize> {
     sig
 }
 
+/// Names for a message: `a, b, c`, or `none`.
+fn listed(names: impl Iterator<Item = String>) -> String {
+    let names: Vec<String> = names.collect();
+    if names.is_empty() {
+        "none".into()
+    } else {
+        names.join(", ")
+    }
+}
+
 /// The token of the block's statement keyword (`L`, `CP` …), if it has one.
 pub fn keyword(content: &[u8], tokens: &[Token]) -> Option<usize> {
     significant(content, tokens).first().copied()
@@ -523,7 +533,7 @@ impl Reader<'_> {
                 Ok(false)
             }
             "BLK" | "LBL" | "STOP" => Ok(false),
-            "TOOL" => self.tool(content, tokens, &sig, modal, at).map(|()| false),
+            "TOOL" => self.tool(content, tokens, &sig, modal, at, out),
             "L" => self.straight(content, tokens, &sig, modal, tnc, at, out),
             "CC" => self
                 .pole(content, tokens, &sig, modal, tnc, at)
@@ -812,8 +822,11 @@ impl Reader<'_> {
         Ok(true)
     }
 
-    /// `TOOL CALL n Z S… DL…`: the tool's length (the machine file's `[tool]` lengths by
-    /// number, else its length) plus DL.
+    /// `TOOL CALL n Z S… DL…`, `TOOL CALL "name" …`: the called tool's length (the
+    /// machine file's `[tool]` lengths by number, `named_lengths` by name; a tool whose
+    /// length is not given is refused) plus DL. A call of a tool by number or name is a
+    /// tool change: the axes of the machine file's `change_moves` (default Z) go to the
+    /// change position and are unknown after it (true: the block moves them).
     fn tool(
         &self,
         content: &[u8],
@@ -821,10 +834,11 @@ impl Reader<'_> {
         sig: &[usize],
         modal: &mut Modal,
         at: At<'_>,
-    ) -> Result<(), Diagnostic> {
+        out: &mut BlockMotion,
+    ) -> Result<bool, Diagnostic> {
         let word = |k: usize| sig.get(k).map_or("", |&i| text(content, &tokens[i]));
         match word(1) {
-            "DEF" => return Ok(()),
+            "DEF" => return Ok(false),
             "CALL" => {}
             _ => {
                 return Err(at(
@@ -839,12 +853,22 @@ impl Reader<'_> {
                 "TOOL CALL under tool-centre-point control (M128, FUNCTION TCPM) cannot be compensated (expected M129 or FUNCTION RESET TCPM before it)".into(),
             ));
         }
-        let mut length = self.machine.tool.length;
+        let mut delta = 0.0;
+        let mut delta_col = None;
+        // The tool called: by number or by name, and the column of its word.
         let mut number = None;
+        let mut name = None;
+        let mut called_at = None;
         for &i in &sig[2..] {
             let t = text(content, &tokens[i]);
             if let Ok(n) = t.parse::<u32>() {
                 number = Some(n);
+                called_at = Some(tokens[i].span.start);
+                continue;
+            }
+            if t.len() >= 2 && t.starts_with('"') && t.ends_with('"') {
+                name = Some(&t[1..t.len() - 1]);
+                called_at = Some(tokens[i].span.start);
                 continue;
             }
             if let Some(dl) = t.strip_prefix("DL") {
@@ -854,7 +878,8 @@ impl Reader<'_> {
                         format!("`{t}`: expected the length's delta as a number (DL+0.5)"),
                     ));
                 };
-                length += if modal.inch { dl * super::INCH } else { dl };
+                delta += if modal.inch { dl * super::INCH } else { dl };
+                delta_col = Some(tokens[i].span.start);
                 continue;
             }
             if matches!(t, "X" | "Y") {
@@ -864,14 +889,52 @@ impl Reader<'_> {
                 ));
             }
         }
-        if let Some(n) = number
-            && let Some(&l) = self.machine.tool.lengths.get(&n)
-        {
-            length += l - self.machine.tool.length;
-        }
-        modal.length = length;
+        let tool = &self.machine.tool;
+        let base = match (number, name) {
+            (Some(n), _) => *tool.lengths.get(&n).ok_or_else(|| {
+                at(
+                    called_at.unwrap_or(0),
+                    format!(
+                        "tool {n} has no length in the machine file (expected it in [tool] lengths, which lists {}): where its tip is, and so the correction, depends on it",
+                        listed(tool.lengths.keys().map(u32::to_string))
+                    ),
+                )
+            })?,
+            (None, Some(name)) => *tool.named_lengths.get(name).ok_or_else(|| {
+                at(
+                    called_at.unwrap_or(0),
+                    format!(
+                        "tool \"{name}\" has no length in the machine file (expected it in [tool] named_lengths, which lists {}): where its tip is, and so the correction, depends on it",
+                        listed(tool.named_lengths.keys().map(|k| format!("\"{k}\"")))
+                    ),
+                )
+            })?,
+            // No tool called: the tool in the spindle stays, with its length.
+            (None, None) => {
+                if let Some(col) = delta_col {
+                    return Err(at(
+                        col,
+                        "a length delta (DL) in a TOOL CALL that names no tool cannot be compensated: which tool's length it adds to is the control's state (expected TOOL CALL with the tool's number or name)".into(),
+                    ));
+                }
+                return Ok(false);
+            }
+        };
+        modal.length = base + delta;
         modal.tool = number;
-        Ok(())
+        // The change moves the machine file's `change_moves` axes.
+        let axes = self.axes(modal.chain);
+        let letters = tool.change_moves;
+        let homed = (0..26u8)
+            .filter(|&l| letters & 1 << l != 0)
+            .filter_map(|l| axes.var_of_letter[l as usize])
+            .fold(0u32, |m, v| m | 1 << v);
+        if homed == 0 {
+            return Ok(false);
+        }
+        out.kind = MoveKind::Home;
+        out.homed = homed;
+        Ok(true)
     }
 
     /// An `L` block.

@@ -281,7 +281,9 @@ pub struct Modal {
     pub tcp_vector: bool,
     /// G98: cycles retract to the initial level.
     pub retract_to_initial: bool,
-    /// The active tool length (mm).
+    /// The active tool length (mm); NaN where a length was switched on for a tool the
+    /// program has not selected (Sinumerik `D1` before any T): a move compensated with
+    /// it is refused.
     pub length: f64,
     /// The last T number.
     pub tool: Option<u32>,

@@ -39,8 +39,9 @@ pub struct Siemens {
     /// Each rotary axis's last absolute value (degrees), by letter: where `DC`, `ACP` and
     /// `ACN` words start from.
     pub angles: [Option<f64>; 26],
-    /// The tool in the spindle is named (`T="…"`), not numbered.
-    pub named_tool: bool,
+    /// The tool selected by name (`T="…"`, without its quotes); a numbered T word after it
+    /// selects by number (`Modal::tool`).
+    pub named_tool: Option<String>,
 }
 
 /// A swivel frame (CYCLE800): where the plane's zero lies in the part frame, its axes,
@@ -188,7 +189,7 @@ struct Statements {
     swivel: Option<usize>,
     mcall: Option<usize>,
     cycle: Option<usize>,
-    named_tool: Option<usize>,
+    named_tool: Option<(usize, String)>,
 }
 
 impl Reader<'_> {
@@ -257,7 +258,10 @@ impl Reader<'_> {
                     "TURN" => {
                         return Err(at(col, "helices with turns (TURN=) are not compensated (expected an arc of one turn at most)".into()));
                     }
-                    "T" if value.starts_with('"') => st.named_tool = Some(col),
+                    "T" if value.starts_with('"') => {
+                        let name = value.trim_matches('"').to_string();
+                        st.named_tool = Some((col, name));
+                    }
                     "A2" | "B2" | "C2" => {
                         return Err(at(
                             col,
@@ -334,7 +338,7 @@ impl Reader<'_> {
             }
             blank(&mut copy, i);
         }
-        if let Some(col) = st.named_tool {
+        if let Some((col, name)) = st.named_tool {
             if self.tools_listed {
                 return Err(at(col, "a tool by name cannot select a tool chain: the machine file lists tools by number (expected T with the tool's number)".into()));
             }
@@ -345,7 +349,7 @@ impl Reader<'_> {
                         .into(),
                 ));
             }
-            s.named_tool = true;
+            s.named_tool = Some(name);
             modal.tool = None;
         }
         // The words: Siemens' G functions into ISO's, the addresses ISO reads otherwise.
@@ -593,16 +597,29 @@ impl Reader<'_> {
         self.select(line, toks, modal, at)?;
         let moves = self.read_words(line, toks, modal, at, out)?;
         if let Some((d, col)) = d_word {
+            let tool = &self.machine.tool;
             let length = if d == 0.0 {
                 0.0
+            } else if let Some(n) = modal.tool {
+                *tool.lengths.get(&n).ok_or_else(|| {
+                    at(col, format!(
+                        "D{d} takes the length of tool T{n}, which has none in the machine file (expected it in [tool] lengths, which lists {}): where its tip is, and so the correction, depends on it",
+                        listed(tool.lengths.keys().map(u32::to_string))
+                    ))
+                })?
+            } else if let Some(name) = &s.named_tool {
+                *tool.named_lengths.get(name).ok_or_else(|| {
+                    at(col, format!(
+                        "D{d} takes the length of tool \"{name}\", which has none in the machine file (expected it in [tool] named_lengths, which lists {}): where its tip is, and so the correction, depends on it",
+                        listed(tool.named_lengths.keys().map(|k| format!("\"{k}\"")))
+                    ))
+                })?
             } else {
-                modal
-                    .tool
-                    .filter(|_| !s.named_tool)
-                    .and_then(|n| self.machine.tool.lengths.get(&n).copied())
-                    .unwrap_or(self.machine.tool.length)
+                // No tool selected: the tool in the spindle is the operator's, its length
+                // not known; a move compensated with it is refused (`Modal::length`).
+                f64::NAN
             };
-            if modal.tcp && length != modal.length {
+            if modal.tcp && length.to_bits() != modal.length.to_bits() {
                 return Err(at(col, "a change of the tool offset under TRAORI cannot be compensated (expected TRAFOOF before it)".into()));
             }
             modal.length = length;
@@ -1080,5 +1097,15 @@ impl Reader<'_> {
             surface_written: None,
             siemens: Some(super::heidenhain::SiemensCall { depth, end: rtp }),
         })
+    }
+}
+
+/// Names for a message: `a, b, c`, or `none`.
+fn listed(names: impl Iterator<Item = String>) -> String {
+    let names: Vec<String> = names.collect();
+    if names.is_empty() {
+        "none".into()
+    } else {
+        names.join(", ")
     }
 }
