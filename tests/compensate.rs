@@ -181,7 +181,7 @@ fn compensate(program: &str) -> Result<String, String> {
 #[test]
 fn unchanged_bytes_stay_and_missing_axes_are_added() {
     let out = compensate(
-        "N5 G0 Z0 A0 C0\r\nn10 g1 x100.5 (keep) y 20\r\nN20 G0 Z50\r\n/N30 X10\r\n; end",
+        "N5 G0 X0 Y0 Z0 A0 C0\r\nn10 g1 x100.5 (keep) y 20\r\nN20 G0 Z50\r\n/N30 X10\r\n; end",
     )
     .unwrap();
     let lines: Vec<&str> = out.split("\r\n").collect();
@@ -215,7 +215,7 @@ fn no_word_is_added_for_an_axis_the_program_has_not_set() {
         "{err}"
     );
     // Once set, an axis takes its share of the correction.
-    let out = compensate("G21 G90\nG0 Z50. A-30. C10.\nG1 X100.5 Y20. F500.\n").unwrap();
+    let out = compensate("G21 G90\nG0 X0 Y0 Z50. A-30. C10.\nG1 X100.5 Y20. F500.\n").unwrap();
     let last = out.lines().nth(2).unwrap();
     assert!(last.contains('Z') && last.contains('A'), "{out}");
 }
@@ -256,13 +256,13 @@ fn unsupported_blocks_are_errors_with_line_and_column() {
     );
     assert!(err.contains("nested more than 64 deep"), "{head}");
     // One that is constant is evaluated.
-    let out = compensate("G1 X[10+2.5] Y0 Z5 A-20 C0\n").unwrap();
-    assert!(out.starts_with("G1 X12.5"), "{out}");
+    let out = compensate("G0 X[10+2.5] Y0 Z5 A-20 C0\n").unwrap();
+    assert!(out.starts_with("G0 X12.5"), "{out}");
 }
 
 #[test]
 fn inch_programs_are_compensated_in_inch() {
-    let out = compensate("G20 G1 X4.0 Y2.0 Z1.0 A-20.0 C30.0\n").unwrap();
+    let out = compensate("G20 G0 X4.0 Y2.0 Z1.0 A-20.0 C30.0\n").unwrap();
     // Inch words get inch resolution (6 decimals for 0.0001 mm).
     let x = out.split_whitespace().find(|w| w.starts_with('X')).unwrap();
     assert_eq!(x.split('.').nth(1).unwrap().len(), 6, "{out}");

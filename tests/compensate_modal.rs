@@ -700,13 +700,14 @@ fn an_optional_block_cannot_make_an_unknown_axis_known() {
 #[test]
 fn inverse_time_feed_words_are_left_byte_for_byte() {
     let program = "G21 G90 G93\n\
+                   G0 X-20. Y10. Z40. A-25. C10.\n\
                    G1 X-20. Y10. Z40. A-25. C10. F120.5\n\
                    X-10. A-20. C20. F240\n\
                    X0 Y0 C35. f 95.25\n\
                    G94 X5. F800.\n\
                    G95 Y5. F0.12\n";
     let (out, summary) = compensate(program).unwrap();
-    assert!(summary.words_changed > 0 && summary.motion_blocks == 5);
+    assert!(summary.words_changed > 0 && summary.motion_blocks == 6);
     let feeds = |p: &str| -> Vec<Vec<String>> {
         p.lines()
             .map(|l| {

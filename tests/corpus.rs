@@ -138,6 +138,9 @@ fn the_fanuc_family_cam_programs_compensate_or_are_refused_for_run_time_values_o
         // The jumps that close branches on run-time values (mouldmoji's `GOTO102` ends the
         // pallet-1 branch of `IF[#1000NE0]GOTO101`).
         "does not follow macro jumps",
+        // A feed move after the control's own machine move (the Robodrill's M69) from an
+        // axis the program never set: where it cuts is the machine's, not the text's.
+        "stands where the program has not set it",
     ];
     for (program, name, compensates) in [
         ("makino_v22_b-c.NCD", "makino_v22", true),
@@ -168,7 +171,7 @@ fn the_fanuc_family_cam_programs_compensate_or_are_refused_for_run_time_values_o
             Err(Error::Inputs(diags)) => {
                 assert!(!compensates, "{program}: {}", diags[0]);
                 assert!(
-                    diags[0].message.contains("decided"),
+                    run_time.iter().any(|r| diags[0].message.contains(r)),
                     "{program}: first refusal {}",
                     diags[0]
                 );

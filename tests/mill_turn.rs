@@ -180,8 +180,11 @@ fn turning_program(start_lower: bool, start_diameter: bool, steps: &[Turn]) -> S
                 if x.is_none() && z.is_none() {
                     continue;
                 }
+                // After a turret change the first move positions the new turret in the
+                // air: a feed move from where it stands is refused.
+                let first = need_both;
                 need_both = false;
-                s += if *feed { "G1" } else { "G0" };
+                s += if *feed && !first { "G1" } else { "G0" };
                 if let Some(x) = x {
                     s += &format!(" X{:.3}", if diameter { 2.0 * x } else { x });
                 }

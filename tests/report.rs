@@ -84,7 +84,7 @@ fn the_map_of_a_constant_positioning_error_is_uniform_along_its_axis() {
         grid: 5,
         ..Options::default()
     };
-    let r = report::build(&machine, &errors, b"G1 X10 Y10 Z0\n", names, &options).unwrap();
+    let r = report::build(&machine, &errors, b"G0 X10 Y10 Z0\n", names, &options).unwrap();
     assert_eq!(r.maps.len(), 1);
     let map = &r.maps[0];
     assert_eq!(map.u.positions, vec![-100.0, -50.0, 0.0, 50.0, 100.0]);

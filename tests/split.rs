@@ -133,7 +133,7 @@ fn inverse_time_pieces_keep_the_moves_time() {
 fn no_split_from_a_start_the_program_left_unknown() {
     // After G28 Z the start of the next move is not known: it must not be split as if it
     // began at the old Z.
-    let program = "N10 G0 X-100 Y-100 Z2 A-30 C0\nN20 G91 G28 Z0\nN30 G90 G1 X100 Z2 F800\n";
+    let program = "N10 G0 X-100 Y-100 Z2 A-30 C0\nN20 G91 G28 Z0\nN30 G90 G0 X100 Z2\n";
     let (out, _) = run(program, Some(PathTolerance::default()));
     assert_eq!(out.lines().count(), 3, "{out}");
 }

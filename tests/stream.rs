@@ -349,12 +349,18 @@ fn tool_changes_between_chains_stream_as_they_run_in_memory() {
         } else {
             format!(" Y{:.3}", 5.0 * t.sin())
         };
-        src.push_str(&format!(
-            "G1 X{:.3}{y} Z{:.3} C{:.3}\n",
+        let words = format!(
+            "X{:.3}{y} Z{:.3} C{:.3}",
             20.0 + 5.0 * t.cos(),
             -1.0 - 0.005 * f64::from(k),
             0.01 * f64::from(k)
-        ));
+        );
+        if k % 200 == 100 {
+            // The new chain's axes stand where the program has not set them: a rapid
+            // sets them before the next cut.
+            src.push_str(&format!("G0 {words}\n"));
+        }
+        src.push_str(&format!("G1 {words}\n"));
     }
     for split in [false, true] {
         let comp = Compensator::new(&m, &e, options(split)).unwrap();

@@ -53,7 +53,9 @@ impl Cx<'_, '_> {
 
     /// The column of token `i`.
     pub fn col(&self, i: usize) -> usize {
-        self.tokens[i].span.start
+        // An index from another block's reading (never expected) points at the line start
+        // rather than panicking.
+        self.tokens.get(i).map_or(0, |t| t.span.start)
     }
 
     /// The column of the block's first axis word (0 when it has none).

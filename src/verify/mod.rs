@@ -663,14 +663,10 @@ impl<'m> Gate<'m> {
     /// turn the tool about two free rotary axes there (not at a singular pose, where the
     /// contract leaves the direction about the singular axis).
     fn direction_judged(&self, o: &Step, q: &[f64; MAX_AXES]) -> bool {
-        let kin = self.kin(o.chain, o.shift);
-        let held = self.held[o.chain];
-        let free = (0..kin.len())
-            .filter(|&v| kin.kind(v) == AxisKind::Rotary && held & (1 << v) == 0)
-            .count();
-        if free < 2 {
+        if self.free_rotaries(o) < 2 {
             return false;
         }
+        let kin = self.kin(o.chain, o.shift);
         let n = kin.len();
         let mut dirs = [nalgebra::Vector3::zeros(); MAX_AXES];
         let angles = kin.angles(&q[..n]);
@@ -684,6 +680,15 @@ impl<'m> Gate<'m> {
         kin.singular_axes(&pose, &dirs, self.singular_angle) == 0
     }
 
+    /// The rotary axes of `o`'s chain that the user does not hold.
+    fn free_rotaries(&self, o: &Step) -> usize {
+        let kin = self.kin(o.chain, o.shift);
+        let held = self.held[o.chain];
+        (0..kin.len())
+            .filter(|&v| kin.kind(v) == AxisKind::Rotary && held & (1 << v) == 0)
+            .count()
+    }
+
     /// Judge the written pieces of original move `o`: the messages of what is off, with
     /// the written line each is at.
     fn judge_move(
@@ -694,7 +699,9 @@ impl<'m> Gate<'m> {
         verdict: &mut Verdict,
     ) -> Vec<(usize, String)> {
         let mut found = Vec::new();
+        // (A rapid is in the air: where it starts does not matter.)
         if check_start
+            && !o.rapid
             && let (Some(os), Some(w)) = (o.mv.start, pieces.first())
             && let Some(ws) = w.mv.start
         {
@@ -740,6 +747,24 @@ impl<'m> Gate<'m> {
                     0.0
                 }
             };
+            // Where the direction is not held (a singular pose, an axis as programmed),
+            // the written words may leave it as uncompensated words would, and no worse.
+            if last && direction == 0.0 && self.free_rotaries(o) >= 2 {
+                let target = self.nominal_end(o).o;
+                let left = angle_between(&real.o, &target);
+                let before = angle_between(&self.real_at(o, &o.mv.end).o, &target);
+                if left > before + tol.end_direction {
+                    found.push((
+                        w.mv.line,
+                        format!(
+                            "this block ends with the tool {:.2} µrad off the nominal direction of the original's move at line {}, more than the original's words leave it ({:.2} µrad), as the control reads the written words",
+                            left * 1e6,
+                            o.mv.line,
+                            before * 1e6
+                        ),
+                    ));
+                }
+            }
             verdict
                 .end_position
                 .update(landing.position, w.mv.line, o.mv.line);
