@@ -210,7 +210,7 @@ fn no_word_is_added_for_an_axis_the_program_has_not_set() {
     let err = compensate("G21 G90\nG1 X100.5 Y20. F500.\nX50.\n").unwrap_err();
     assert!(
         err.contains(
-            "p.nc:2:4: a feed move while axis Z, A, C stands where the program has not set it"
+            "p.nc:2:4: a feed move while axis X, Y, Z, A, C stands where the program has not set it"
         ),
         "{err}"
     );
@@ -224,7 +224,7 @@ fn no_word_is_added_for_an_axis_the_program_has_not_set() {
 fn unsupported_blocks_are_errors_with_line_and_column() {
     for (program, needle) in [
         (
-            "G1 X10 Y0 Z5 A-20 C0\nG2 X20 Y10 I5 J0\n",
+            "G0 X10 Y0 Z5 A-20 C0\nG2 X20 Y10 I5 J0\n",
             "p.nc:2:1: this arc cannot be compensated: its end is not on its circle",
         ),
         ("G92 X0\n", "p.nc:1:1: G92 cannot be compensated"),

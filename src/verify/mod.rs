@@ -553,9 +553,15 @@ impl<'m> Gate<'m> {
         let (chain, length) = (step.chain, step.mv.tool_length);
         let mut worst = 0.0_f64;
         let mut turn = |words: &mut [f64; MAX_AXES], v: [f64; 3], from: &[f64; MAX_AXES]| {
+            // No vector given since TCP came on: the tool points where the axes stand.
+            let o = if v == [0.0; 3] {
+                kin.pose(Model::Nominal, &from[..n], length).0.o
+            } else {
+                nalgebra::Vector3::from(v)
+            };
             let target = Pose {
                 p: self.tip_at(chain, words),
-                o: nalgebra::Vector3::from(v),
+                o,
             };
             let solution = kin.solve(
                 Model::Nominal,

@@ -86,7 +86,8 @@ pub struct Follower<'m> {
     pub has_optional: bool,
     /// The last item was a gap: the next move's start is not judged.
     after_gap: bool,
-    /// The tool vector in force under G43.5 (normalised).
+    /// The tool vector in force under G43.5 (normalised; zero: none given since TCP
+    /// came on, the direction the axes stand at).
     vector: [f64; 3],
 }
 
@@ -122,7 +123,7 @@ impl<'m> Follower<'m> {
             skip_optional,
             has_optional: false,
             after_gap: true,
-            vector: [0.0, 0.0, 1.0],
+            vector: [0.0; 3],
         }
     }
 
@@ -176,6 +177,8 @@ impl<'m> Follower<'m> {
         // The control's frame changed: where the axes stand in it is recomputed by the
         // control; the gate does not follow that.
         if self.modal.tcp != tcp_before || self.modal.working_plane != plane_before {
+            // Until a block gives one, the tool vector is where the axes point it.
+            self.vector = [0.0; 3];
             self.pos.unknown = every(self);
             return Ok(Some(self.gap(GapKind::Unknown, line.number)));
         }
