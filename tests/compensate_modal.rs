@@ -642,7 +642,7 @@ fn g53_and_g28_leave_their_axes_unknown_until_a_g90_block_programs_them() {
     assert_eq!(summary.motion_blocks, 6);
     assert!(
         summary.to_string().contains(
-            "note: 5 blocks (first at line 3) were written uncompensated: axes Z, A, C were at a position nccomp does not know (after G28, G30, G53 or a machine move code) until a G90 block programmed them"
+            "note: 5 blocks (first at line 3) were written uncompensated: axes Z, A, C were at a position nccomp does not know (at the program's start, or after G28, G30, G53, a machine move code or a tool change) until a G90 block programmed them"
         ),
         "{summary}"
     );

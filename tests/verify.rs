@@ -330,13 +330,36 @@ fn an_optional_move_is_judged_in_both_block_delete_states() {
 #[test]
 fn report_prints_the_summary_compensate_prints() {
     let dir = scratch("verify-report");
-    for (machine, program) in [
-        ("ac_trunnion", "fixtures/feature_workpiece.nc"),
-        ("ac_trunnion", "fixtures/tnc_ac_trunnion.h"),
-        ("ac_trunnion", "fixtures/840d_ac_trunnion_swivel.mpf"),
-    ] {
-        let m = format!("fixtures/{machine}.machine.toml");
-        let e = format!("fixtures/{machine}.errors.toml");
+    let mut cases = vec![
+        (
+            "fixtures/ac_trunnion",
+            "fixtures/ac_trunnion",
+            "fixtures/feature_workpiece.nc".to_string(),
+        ),
+        (
+            "fixtures/ac_trunnion",
+            "fixtures/ac_trunnion",
+            "fixtures/tnc_ac_trunnion.h".to_string(),
+        ),
+        (
+            "fixtures/ac_trunnion",
+            "fixtures/ac_trunnion",
+            "fixtures/840d_ac_trunnion_swivel.mpf".to_string(),
+        ),
+    ];
+    // The Fusion 840D corpus program, where the corpus is beside the project.
+    let fusion = "../shared/corpus/cam/fusion_840d_CAM_TEST.MPF";
+    if Path::new(env!("CARGO_MANIFEST_DIR")).join(fusion).exists() {
+        cases.push((
+            "fixtures/corpus/fusion_840d_ac",
+            "fixtures/corpus/dmu85_ac",
+            fusion.to_string(),
+        ));
+    }
+    for (machine, errors, program) in &cases {
+        let program = program.as_str();
+        let m = format!("{machine}.machine.toml");
+        let e = format!("{errors}.errors.toml");
         let comp = nccomp(&[
             "compensate",
             "-m",

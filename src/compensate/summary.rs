@@ -292,9 +292,9 @@ impl Summary {
                 },
                 self.unknown_axes.join(", "),
                 if self.lathe_unknown {
-                    "after G28, G30, G53, a machine move code, M19 or a change of tool chain"
+                    "at the program's start, or after G28, G30, G53, a machine move code, M19 or a change of tool chain"
                 } else {
-                    "after G28, G30, G53 or a machine move code"
+                    "at the program's start, or after G28, G30, G53, a machine move code or a tool change"
                 }
             ));
         }
