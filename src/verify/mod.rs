@@ -185,11 +185,7 @@ impl std::fmt::Display for Verdict {
             self.path_direction.value * 1e6,
         )?;
         if self.unfollowed() > 0 {
-            let kinds: Vec<String> = self
-                .not_followed
-                .iter()
-                .map(|(k, n)| format!("{n} {}", k.name()))
-                .collect();
+            let kinds: Vec<String> = self.not_followed.iter().map(|(k, n)| k.count(*n)).collect();
             write!(f, "; not verified: {}", kinds.join(", "))?;
         }
         Ok(())
@@ -203,6 +199,10 @@ pub struct Text<'a> {
     pub src: &'a [u8],
 }
 
+/// The end poses of a written move matched to an original one, by their lines and end
+/// values: ((original line, written line, original end, written end), real, nominal).
+type EndKey = ((usize, usize, [f64; MAX_AXES], [f64; MAX_AXES]), Pose, Pose);
+
 /// Kinematics made for a tool chain and program zero: (chain, shift, kinematics).
 type Shifted = (usize, [f64; 3], std::rc::Rc<Kinematics>);
 
@@ -213,6 +213,8 @@ pub struct Gate<'m> {
     chains: Vec<Kinematics>,
     /// Shifted kinematics made so far: (chain, shift, kinematics).
     shifted: std::cell::RefCell<Vec<Shifted>>,
+    /// The last end poses evaluated ([`Gate::end_poses`]).
+    last_end: std::cell::RefCell<Option<EndKey>>,
     tolerances: Tolerances,
     /// Variables whose values the user holds (`--hold`), by chain.
     held: Vec<u32>,
@@ -226,6 +228,23 @@ const MAX_PIECES: usize = 8 * 1024;
 /// After a stretch the gate does not follow, at most this many written blocks are passed
 /// over before the written program must take up the original's path again.
 const RESYNC: usize = MAX_PIECES + 64;
+
+/// The deviation a move was judged to leave at its end, and the axis values it ended at
+/// (written and original), to start the next move's path bound from.
+#[derive(Debug, Clone, Copy)]
+struct EndDev {
+    written: [f64; MAX_AXES],
+    original: [f64; MAX_AXES],
+    position: f64,
+    direction: f64,
+    /// The direction was measured there (or is not judged on this machine at all).
+    measured: bool,
+}
+
+/// Equal to the last bit.
+fn same(a: &[f64; MAX_AXES], b: &[f64; MAX_AXES]) -> bool {
+    a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+}
 
 /// Where a piece of an original move ends: the fraction and the deviation there.
 struct Landing {
@@ -279,6 +298,7 @@ impl<'m> Gate<'m> {
             machine,
             chains,
             shifted: std::cell::RefCell::new(Vec::new()),
+            last_end: std::cell::RefCell::new(None),
             tolerances,
             held,
             singular_angle: SolveOptions::default().singular_angle,
@@ -427,6 +447,8 @@ impl<'m> Gate<'m> {
         // at the first written move that ends where the original's next move ends.
         let mut in_gap = false;
         let mut last_length: Option<f64> = None;
+        // Where the last move judged ended, for the path bound of the next.
+        let mut previous: Option<EndDev> = None;
         while let Some(item) = orig.take() {
             if verdict.findings.len() >= 20 {
                 return;
@@ -509,7 +531,9 @@ impl<'m> Gate<'m> {
                     // starts from a pose no earlier end was judged at.
                     let changed = last_length.is_some_and(|l: f64| l != o.mv.tool_length);
                     last_length = Some(o.mv.tool_length);
-                    for (w_line, text) in self.judge_move(&o, &pieces, changed, verdict) {
+                    let (messages, end) = self.judge_move(&o, &pieces, changed, previous, verdict);
+                    previous = Some(end);
+                    for (w_line, text) in messages {
                         finding(verdict, w_line, o.mv.line, format!("{text}{state}"));
                     }
                 }
@@ -655,14 +679,30 @@ impl<'m> Gate<'m> {
     /// Whether written step `w` ends where original step `o` does (tip within the end
     /// tolerance, and the direction where it is judged).
     fn ends_together(&self, o: &Step, w: &Step) -> bool {
-        let target = self.nominal_end(o);
-        let real = self.real_at(w, &w.mv.end);
+        let (real, target) = self.end_poses(o, w);
         if (real.p - target.p).norm() > self.tolerances.end_position {
             return false;
         }
         self.rotary_as_programmed(o, w)
             || !self.direction_judged(o, &o.mv.end)
             || angle_between(&real.o, &target.o) <= self.tolerances.end_direction
+    }
+
+    /// The real pose at written `w`'s end and the nominal one at original `o`'s end: the
+    /// matching and the judging of a move's end take the same two poses, evaluated once.
+    fn end_poses(&self, o: &Step, w: &Step) -> (Pose, Pose) {
+        let key = (o.mv.line, w.mv.line, o.mv.end, w.mv.end);
+        if let Some((k, real, target)) = *self.last_end.borrow()
+            && k.0 == key.0
+            && k.1 == key.1
+            && same(&k.2, &key.2)
+            && same(&k.3, &key.3)
+        {
+            return (real, target);
+        }
+        let (real, target) = (self.real_at(w, &w.mv.end), self.nominal_end(o));
+        *self.last_end.borrow_mut() = Some((key, real, target));
+        (real, target)
     }
 
     /// Whether the tool direction is held at the nominal pose `q` of `o`: the machine can
@@ -702,9 +742,17 @@ impl<'m> Gate<'m> {
         o: &Step,
         pieces: &[Step],
         check_start: bool,
+        before: Option<EndDev>,
         verdict: &mut Verdict,
-    ) -> Vec<(usize, String)> {
+    ) -> (Vec<(usize, String)>, EndDev) {
         let mut found = Vec::new();
+        let mut end_dev = EndDev {
+            written: [0.0; MAX_AXES],
+            original: o.mv.end,
+            position: 0.0,
+            direction: 0.0,
+            measured: false,
+        };
         // (A rapid is in the air: where it starts does not matter.)
         if check_start
             && !o.rapid
@@ -731,9 +779,14 @@ impl<'m> Gate<'m> {
         let mut ends = Vec::with_capacity(pieces.len());
         let mut end_devs: Vec<f64> = Vec::with_capacity(pieces.len());
         for (k, w) in pieces.iter().enumerate() {
-            let real = self.real_at(w, &w.mv.end);
-            let landing = if k + 1 == pieces.len() {
-                let target = self.nominal_end(o);
+            let last_piece = k + 1 == pieces.len();
+            let (real, end_target) = if last_piece {
+                let (real, target) = self.end_poses(o, w);
+                (real, Some(target))
+            } else {
+                (self.real_at(w, &w.mv.end), None)
+            };
+            let landing = if let Some(target) = end_target {
                 Landing {
                     s: 1.0,
                     position: (real.p - target.p).norm(),
@@ -745,14 +798,25 @@ impl<'m> Gate<'m> {
             // (the pass holds it there by design): the direction is judged at the move's
             // end, and between ends of a move written whole.
             let last = k + 1 == pieces.len();
+            let mut measured = self.free_rotaries(o) < 2;
             let direction = {
                 let q = o.mv.at(landing.s, n);
                 if last && !held && self.direction_judged(o, &q) {
+                    measured = true;
                     angle_between(&real.o, &self.nominal_at(o, &q).o)
                 } else {
                     0.0
                 }
             };
+            if last {
+                end_dev = EndDev {
+                    written: w.mv.end,
+                    original: o.mv.end,
+                    position: landing.position,
+                    direction,
+                    measured,
+                };
+            }
             // Where the direction is not held (a singular pose, an axis as programmed),
             // the written words may leave it as uncompensated words would, and no worse.
             if last && direction == 0.0 && self.free_rotaries(o) >= 2 {
@@ -802,13 +866,25 @@ impl<'m> Gate<'m> {
         }
         // Between block ends: feed moves whose starts are known.
         let Some((path_p, path_d)) = tol.path else {
-            return found;
+            return (found, end_dev);
         };
         if o.rapid || o.mv.start.is_none() {
-            return found;
+            return (found, end_dev);
         }
         for (k, (w, &(s0, s1))) in pieces.iter().zip(&ends).enumerate() {
             if w.mv.start.is_none() || w.rapid {
+                continue;
+            }
+            // A straight move written whole, from where the last one ended: the bound on
+            // how far it can stray beyond its ends (the pass's, `Kinematics::path_sag`)
+            // clears it without a pose where it can.
+            if pieces.len() == 1
+                && let Some(start) = before.filter(|b| {
+                    w.mv.start.is_some_and(|ws| same(&ws, &b.written))
+                        && o.mv.start.is_some_and(|os| same(&os, &b.original))
+                })
+                && self.cleared(o, w, &start, &end_dev, (path_p, path_d))
+            {
                 continue;
             }
             let (mut worst_p, mut worst_d) = (0.0_f64, 0.0_f64);
@@ -877,7 +953,41 @@ impl<'m> Gate<'m> {
                 ));
             }
         }
-        found
+        (found, end_dev)
+    }
+
+    /// Whether the bound on a straight move's deviation between its ends clears it: the
+    /// move in machine axes, with the original's kinematics and tool.
+    fn cleared(&self, o: &Step, w: &Step, start: &EndDev, end: &EndDev, tol: (f64, f64)) -> bool {
+        let straight = |s: &Step| !matches!(s.mv.shape, crate::program::moves::Shape::Arc(_));
+        if o.tcp
+            || w.tcp
+            || !straight(o)
+            || !straight(w)
+            || o.chain != w.chain
+            || o.shift != w.shift
+            || o.mv.tool_length.to_bits() != w.mv.tool_length.to_bits()
+        {
+            return false;
+        }
+        let (Some(os), Some(ws)) = (o.mv.start, w.mv.start) else {
+            return false;
+        };
+        if !(start.measured && end.measured) {
+            return false;
+        }
+        let kin = self.kin(o.chain, o.shift);
+        let n = kin.len();
+        let Some(sag) = kin.path_sag(
+            (&os[..n], &o.mv.end[..n]),
+            (&ws[..n], &w.mv.end[..n]),
+            o.mv.tool_length,
+        ) else {
+            return false;
+        };
+        let position = start.position.max(end.position) + sag.position + 1e-9;
+        let chord = start.direction.max(end.direction) + sag.direction;
+        chord < 0.1 && position <= tol.0 && chord * 1.001 + 1e-12 <= tol.1
     }
 
     /// Where on original move `o` (from fraction `from` on) the real tip `real` of written

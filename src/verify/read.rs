@@ -33,15 +33,36 @@ pub enum GapKind {
 }
 
 impl GapKind {
+    /// What a block of this kind is, plural.
     pub fn name(self) -> &'static str {
+        self.names().1
+    }
+
+    /// `n` blocks of this kind, in words.
+    pub fn count(self, n: usize) -> String {
+        let (one, many) = self.names();
+        if n == 1 {
+            format!("1 {one}")
+        } else {
+            format!("{n} {many}")
+        }
+    }
+
+    fn names(self) -> (&'static str, &'static str) {
         match self {
-            GapKind::Tcp => "tool-centre-point blocks",
-            GapKind::Plane => "blocks in tilted working planes",
-            GapKind::Cycle => "drilling cycles",
-            GapKind::Turning => "turning moves",
-            GapKind::Unknown => "moves from or to a place the program has not set",
-            GapKind::Machine => "moves to machine positions",
-            GapKind::Other => "other moves",
+            GapKind::Tcp => ("tool-centre-point block", "tool-centre-point blocks"),
+            GapKind::Plane => (
+                "block in a tilted working plane",
+                "blocks in tilted working planes",
+            ),
+            GapKind::Cycle => ("drilling cycle", "drilling cycles"),
+            GapKind::Turning => ("turning move", "turning moves"),
+            GapKind::Unknown => (
+                "move from or to a place the program has not set",
+                "moves from or to a place the program has not set",
+            ),
+            GapKind::Machine => ("move to machine positions", "moves to machine positions"),
+            GapKind::Other => ("other move", "other moves"),
         }
     }
 }
