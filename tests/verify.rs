@@ -385,3 +385,34 @@ fn report_prints_the_summary_compensate_prints() {
         assert_eq!(stderr(&report), stderr(&comp), "{program}");
     }
 }
+
+/// Issue 34, case 18: a program whose own prediction after compensation leaves the tip
+/// beyond the tolerance must not pass as compensated, whether or not the gate follows
+/// its blocks (the G43.5 case in the issue predicted 23.8 µm and exited 0).
+#[test]
+fn a_prediction_beyond_the_tolerance_is_refused_at_its_line() {
+    use nccomp::compensate::{Compensator, Extreme, Options, Summary};
+    use nccomp::model::{error_file, machine_file};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures");
+    let machine = machine_file::load(&root.join("ac_trunnion.machine.toml")).unwrap();
+    let errors = error_file::load(&root.join("ac_trunnion.errors.toml"), &machine).unwrap();
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let src = b"G0 X0 Y0 Z50 A0 C0\nG1 X10 F500\nG1 X20\n";
+    let summary = |after: f64| Summary {
+        after_position: Extreme {
+            value: after,
+            line: 2,
+        },
+        ..Summary::default()
+    };
+    let refused = comp
+        .predicted_beyond(&summary(0.0238), "p.nc", src)
+        .expect("23.8 µm predicted after compensation is refused");
+    assert_eq!((refused.line, refused.column), (2, 1), "{refused:?}");
+    assert!(refused.message.contains("0.0238 mm"), "{}", refused.message);
+    // Within the tolerance (1 µm and the words' rounding) it passes.
+    assert!(
+        comp.predicted_beyond(&summary(0.0009), "p.nc", src)
+            .is_none()
+    );
+}
