@@ -683,9 +683,10 @@ impl<'m> Gate<'m> {
         if (real.p - target.p).norm() > self.tolerances.end_position {
             return false;
         }
-        self.rotary_as_programmed(o, w)
+        // (The singular-pose test only where the angle would fail: it costs a pose.)
+        angle_between(&real.o, &target.o) <= self.tolerances.end_direction
+            || self.rotary_as_programmed(o, w)
             || !self.direction_judged(o, &o.mv.end)
-            || angle_between(&real.o, &target.o) <= self.tolerances.end_direction
     }
 
     /// The real pose at written `w`'s end and the nominal one at original `o`'s end: the
@@ -799,14 +800,22 @@ impl<'m> Gate<'m> {
             // end, and between ends of a move written whole.
             let last = k + 1 == pieces.len();
             let mut measured = self.free_rotaries(o) < 2;
-            let direction = {
+            let direction = if last && !held && !measured {
                 let q = o.mv.at(landing.s, n);
-                if last && !held && self.direction_judged(o, &q) {
+                let angle = match end_target {
+                    Some(target) if landing.s == 1.0 => angle_between(&real.o, &target.o),
+                    _ => angle_between(&real.o, &self.nominal_at(o, &q).o),
+                };
+                // Within the tolerance it is what it is; beyond it, it counts only where
+                // the direction is held (the singular-pose test costs a pose).
+                if angle <= tol.end_direction || self.direction_judged(o, &q) {
                     measured = true;
-                    angle_between(&real.o, &self.nominal_at(o, &q).o)
+                    angle
                 } else {
                     0.0
                 }
+            } else {
+                0.0
             };
             if last {
                 end_dev = EndDev {
@@ -910,11 +919,14 @@ impl<'m> Gate<'m> {
                 let target = self.nominal_at(o, &q_o);
                 let dp = (real.p - target.p).norm().min((real.p - at_guess.p).norm());
                 worst_p = worst_p.max(dp);
-                if !held && pieces.len() == 1 && self.direction_judged(o, &q_o) {
-                    // Either reading, as for the position.
-                    worst_d = worst_d.max(
-                        angle_between(&real.o, &target.o).min(angle_between(&real.o, &at_guess.o)),
-                    );
+                if !held && pieces.len() == 1 && self.free_rotaries(o) >= 2 {
+                    // Either reading, as for the position; the singular-pose test only
+                    // where the angle would fail.
+                    let angle =
+                        angle_between(&real.o, &target.o).min(angle_between(&real.o, &at_guess.o));
+                    if angle <= path_d || self.direction_judged(o, &q_o) {
+                        worst_d = worst_d.max(angle);
+                    }
                 }
             }
             verdict.path_position.update(worst_p, w.mv.line, o.mv.line);
