@@ -58,23 +58,9 @@ impl Mode for AxesMode {
             *q = state.pos.nominal;
             return Ok(true);
         }
-        // The pose cannot be evaluated: a rapid (in the air) is written as it is, and what
-        // the machine is told is what the program says; a feed move cuts where the real
-        // tool goes, which is not known.
-        let unknown_now = state.pos.unknown & !(pass.spindle | pass.idle);
-        if !state.modal.rapid && unknown_now != 0 {
-            let names: Vec<&str> = (0..n)
-                .filter(|&v| unknown_now & (1 << v) != 0)
-                .map(|v| pass.axis_name(v))
-                .collect();
-            return Err(cx.refuse(
-                cx.first_col(),
-                format!(
-                    "a feed move while axis {} stands where the program has not set it (at the start, or after G28, G30, G53, a machine move or a tool change): where the real tool cuts is not known (expected a rapid G0 that sets every axis before the first feed move)",
-                    names.join(", ")
-                ),
-            ));
-        }
+        // The pose cannot be evaluated: a rapid (in the air; a feed move from an unknown
+        // place was refused above) is written as it is, and what the machine is told is
+        // what the program says.
         for (v, word) in cx.motion.axis_words.iter().enumerate().take(n) {
             let bit = 1u32 << v;
             let Some(i) = *word else { continue };
