@@ -47,11 +47,24 @@ impl ArcPath {
         start: [f64; MAX_AXES],
         end: [f64; MAX_AXES],
     ) -> ArcPath {
+        ArcPath::about(like, centre, start, end, |th0, th1| {
+            let sweep = th1 - th0;
+            sweep + TAU * ((like.sweep - sweep) / TAU).round()
+        })
+    }
+
+    /// The arc from `start` to `end` about `centre` in the plane of `like`, its sweep
+    /// from the start and end angles by `sweep`.
+    fn about(
+        like: &ArcPath,
+        centre: (f64, f64),
+        start: [f64; MAX_AXES],
+        end: [f64; MAX_AXES],
+        sweep: impl Fn(f64, f64) -> f64,
+    ) -> ArcPath {
         let (va, vb) = (like.va, like.vb);
         let th0 = (start[vb] - centre.1).atan2(start[va] - centre.0);
         let th1 = (end[vb] - centre.1).atan2(end[va] - centre.0);
-        let mut sweep = th1 - th0;
-        sweep += TAU * ((like.sweep - sweep) / TAU).round();
         ArcPath {
             va,
             vb,
@@ -59,7 +72,7 @@ impl ArcPath {
             r0: ((start[va] - centre.0).powi(2) + (start[vb] - centre.1).powi(2)).sqrt(),
             r1: ((end[va] - centre.0).powi(2) + (end[vb] - centre.1).powi(2)).sqrt(),
             th0,
-            sweep,
+            sweep: sweep(th0, th1),
             start,
             end,
         }
@@ -77,27 +90,21 @@ impl ArcPath {
         end: [f64; MAX_AXES],
         clockwise: bool,
     ) -> ArcPath {
-        let (va, vb) = (like.va, like.vb);
-        let th0 = (start[vb] - centre.1).atan2(start[va] - centre.0);
-        let th1 = (end[vb] - centre.1).atan2(end[va] - centre.0);
-        let sweep = if clockwise {
-            let s = -(th0 - th1).rem_euclid(TAU);
-            if s == 0.0 { -TAU } else { s }
-        } else {
-            let s = (th1 - th0).rem_euclid(TAU);
-            if s == 0.0 { TAU } else { s }
-        };
-        ArcPath {
-            va,
-            vb,
-            centre,
-            r0: ((start[va] - centre.0).powi(2) + (start[vb] - centre.1).powi(2)).sqrt(),
-            r1: ((end[va] - centre.0).powi(2) + (end[vb] - centre.1).powi(2)).sqrt(),
-            th0,
-            sweep,
-            start,
-            end,
-        }
+        ArcPath::about(like, centre, start, end, |th0, th1| {
+            commanded_sweep(th0, th1, clockwise)
+        })
+    }
+}
+
+/// The signed sweep G2 (`clockwise`) or G3 commands from angle `th0` to `th1`: in
+/// [-2π, 0) for G2, (0, 2π] for G3; equal angles make a full circle.
+fn commanded_sweep(th0: f64, th1: f64, clockwise: bool) -> f64 {
+    if clockwise {
+        let s = -(th0 - th1).rem_euclid(TAU);
+        if s == 0.0 { -TAU } else { s }
+    } else {
+        let s = (th1 - th0).rem_euclid(TAU);
+        if s == 0.0 { TAU } else { s }
     }
 }
 
@@ -184,14 +191,7 @@ pub fn circle(
     }
     let th0 = (b0 - centre.1).atan2(a0 - centre.0);
     let th1 = (b1 - centre.1).atan2(a1 - centre.0);
-    // Signed sweep: clockwise negative; equal ends make a full circle.
-    let sweep = if clockwise {
-        let s = -(th0 - th1).rem_euclid(TAU);
-        if s == 0.0 { -TAU } else { s }
-    } else {
-        let s = (th1 - th0).rem_euclid(TAU);
-        if s == 0.0 { TAU } else { s }
-    };
+    let sweep = commanded_sweep(th0, th1, clockwise);
     Ok(Circle {
         centre,
         r0,

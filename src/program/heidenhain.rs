@@ -319,7 +319,7 @@ fn significant(content: &[u8], tokens: &[Token]) -> Vec<usize> {
 }
 
 /// Names for a message: `a, b, c`, or `none`.
-fn listed(names: impl Iterator<Item = String>) -> String {
+pub(super) fn listed(names: impl Iterator<Item = String>) -> String {
     let names: Vec<String> = names.collect();
     if names.is_empty() {
         "none".into()

@@ -604,14 +604,14 @@ impl Reader<'_> {
                 *tool.lengths.get(&n).ok_or_else(|| {
                     at(col, format!(
                         "D{d} takes the length of tool T{n}, which has none in the machine file (expected it in [tool] lengths, which lists {}): where its tip is, and so the correction, depends on it",
-                        listed(tool.lengths.keys().map(u32::to_string))
+                        super::heidenhain::listed(tool.lengths.keys().map(u32::to_string))
                     ))
                 })?
             } else if let Some(name) = &s.named_tool {
                 *tool.named_lengths.get(name).ok_or_else(|| {
                     at(col, format!(
                         "D{d} takes the length of tool \"{name}\", which has none in the machine file (expected it in [tool] named_lengths, which lists {}): where its tip is, and so the correction, depends on it",
-                        listed(tool.named_lengths.keys().map(|k| format!("\"{k}\"")))
+                        super::heidenhain::listed(tool.named_lengths.keys().map(|k| format!("\"{k}\"")))
                     ))
                 })?
             } else {
@@ -1097,15 +1097,5 @@ impl Reader<'_> {
             surface_written: None,
             siemens: Some(super::heidenhain::SiemensCall { depth, end: rtp }),
         })
-    }
-}
-
-/// Names for a message: `a, b, c`, or `none`.
-fn listed(names: impl Iterator<Item = String>) -> String {
-    let names: Vec<String> = names.collect();
-    if names.is_empty() {
-        "none".into()
-    } else {
-        names.join(", ")
     }
 }

@@ -213,6 +213,9 @@ pub struct Gate<'m> {
     chains: Vec<Kinematics>,
     /// Shifted kinematics made so far: (chain, shift, kinematics).
     shifted: std::cell::RefCell<Vec<Shifted>>,
+    /// The variables of each tool chain as the words drive them (made once: the TCP
+    /// tip is read from them at every pose).
+    axes: Vec<crate::program::axes::Axes>,
     /// The last end poses evaluated ([`Gate::end_poses`]).
     last_end: std::cell::RefCell<Option<EndKey>>,
     tolerances: Tolerances,
@@ -299,6 +302,9 @@ impl<'m> Gate<'m> {
             chains,
             shifted: std::cell::RefCell::new(Vec::new()),
             last_end: std::cell::RefCell::new(None),
+            axes: (0..machine.tool_chains.len())
+                .map(|c| crate::program::axes::Axes::of(machine, c))
+                .collect(),
             tolerances,
             held,
             singular_angle: SolveOptions::default().singular_angle,
@@ -320,7 +326,7 @@ impl<'m> Gate<'m> {
             return k.clone();
         }
         let base = &self.chains[chain];
-        let axes = crate::program::axes::Axes::of(self.machine, chain);
+        let axes = &self.axes[chain];
         let mut by_var = [0.0; MAX_AXES];
         for (c, letter) in [b'X', b'Y', b'Z'].into_iter().enumerate() {
             if let Some(v) = axes.linear_of(letter) {
@@ -614,7 +620,7 @@ impl<'m> Gate<'m> {
     }
 
     fn tip_at(&self, chain: usize, q: &[f64; MAX_AXES]) -> nalgebra::Vector3<f64> {
-        let axes = crate::program::axes::Axes::of(self.machine, chain);
+        let axes = &self.axes[chain];
         let at = |l: u8| axes.linear_of(l).map_or(0.0, |v| q[v]);
         nalgebra::Vector3::new(at(b'X'), at(b'Y'), at(b'Z'))
     }
