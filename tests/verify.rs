@@ -327,6 +327,69 @@ fn an_optional_move_is_judged_in_both_block_delete_states() {
     }
 }
 
+/// With block delete off an optional block runs like any other: an optional rapid that
+/// sets the axes G28 left unknown ends at a known pose, which must be corrected; the gate
+/// reads it so (it once took the optional block's words as not settling the axes, as the
+/// pass does for the state where it is skipped).
+#[test]
+fn an_optional_rapid_that_sets_unknown_axes_is_held_to_its_pose_when_it_runs() {
+    let dir = scratch("verify-optional-rapid");
+    let program = write(
+        &dir,
+        "g28.nc",
+        "G21 G90 G17\nG0 X10. Y10. Z40. A-20. C15.\nG91 G28 Z0\nG90 G0 X0 Y0\n/G0 Z30.\nG0 Z50.\nM30\n",
+    );
+    let m = "fixtures/ac_trunnion.machine.toml";
+    let e = "fixtures/ac_trunnion.errors.toml";
+    let output = dir.join("g28.comp.nc");
+    let out = nccomp(&[
+        "compensate",
+        "-m",
+        m,
+        "-e",
+        e,
+        s(&program),
+        "-o",
+        s(&output),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let written = std::fs::read_to_string(&output).unwrap();
+    let optional = written.lines().find(|l| l.starts_with('/')).unwrap();
+    assert_ne!(optional, "/G0 Z30.", "{written}");
+    // The original's words in the optional block: right only where it is skipped.
+    let broken = write(
+        &dir,
+        "g28.broken.nc",
+        &written.replace(optional, "/G0 Z30."),
+    );
+    for (state, code) in [("on", 0), ("off", 1)] {
+        let check = nccomp(&[
+            "verify",
+            "-m",
+            m,
+            "-e",
+            e,
+            s(&program),
+            s(&broken),
+            "--block-delete",
+            state,
+        ]);
+        assert_eq!(
+            check.status.code(),
+            Some(code),
+            "{state}: {}",
+            stdout(&check)
+        );
+    }
+    let check = nccomp(&["verify", "-m", m, "-e", e, s(&program), s(&broken)]);
+    assert_eq!(check.status.code(), Some(1), "{}", stdout(&check));
+    assert!(
+        stdout(&check).contains("at line 5 ends"),
+        "{}",
+        stdout(&check)
+    );
+}
+
 #[test]
 fn report_prints_the_summary_compensate_prints() {
     let dir = scratch("verify-report");

@@ -54,7 +54,14 @@ impl Mode for AxesMode {
         Self::advance(b)?;
         let (pass, cx, state, out) = b.parts();
         let n = pass.kin.len();
-        if state.pos.unknown & !(pass.spindle | pass.idle) == 0 {
+        let unknown = state.pos.unknown & !(pass.spindle | pass.idle);
+        // An optional block that sets every unknown axis ends at a known pose when it runs
+        // (block delete off): it is corrected like any other, and the axes stay unknown
+        // after it, as they are when it is skipped.
+        let sets = (0..n)
+            .filter(|&v| cx.motion.axis_words[v].is_some())
+            .fold(0u32, |m, v| m | 1 << v);
+        if unknown == 0 || (optional && unknown & !sets == 0) {
             *q = state.pos.nominal;
             return Ok(true);
         }

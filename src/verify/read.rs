@@ -162,6 +162,10 @@ impl<'m> Follower<'m> {
             if self.skip_optional {
                 return Ok(None);
             }
+            // With block delete off the control runs the block as any other: its axis
+            // words settle the axes they set (the pass's reader keeps them unsettled,
+            // as the block may not run).
+            self.tokens.retain(|t| t.kind != TokenKind::BlockDelete);
         }
         let at = |offset: usize, message: String| {
             Diagnostic::at(path, src, line.offset + offset, message)
