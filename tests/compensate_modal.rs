@@ -680,17 +680,33 @@ fn harmless_reference_codes_pass_and_g92_stays_refused() {
 
 #[test]
 fn an_optional_block_cannot_make_an_unknown_axis_known() {
-    let program = "G0 X0 Y0 Z50. A-30. C0\nG28 Z0\n/G0 Z40.\nG0 X10.\nG0 Z40.\nG1 X20.\n";
+    // Z is known after the optional block only when it runs: a rapid that leaves Z there
+    // ends at a pose to correct with block delete off and an unknown one with it on.
+    for program in [
+        "G0 X0 Y0 Z50. A-30. C0\nG28 Z0\n/G0 Z40.\nG0 X10.\nG0 Z40.\nG1 X20.\n",
+        "G0 X0 Y0 Z50. A-30. C0\nG28\n/G0 Z40.\nG0 X10. Y0 A-30. C0\nG1 X20.\n",
+    ] {
+        let err = compensate(program).unwrap_err();
+        assert!(
+            err.contains("p.nc:4:")
+                && err.contains(
+                    "this rapid leaves axis Z where the optional block (/) at line 3 put it"
+                ),
+            "{program:?}: {err}"
+        );
+    }
+    // Programmed again in a block of its own, Z is known in both states.
+    let program = "G0 X0 Y0 Z50. A-30. C0\nG28 Z0\n/G0 Z40.\nG0 Z40.\nG0 X10.\nG1 X20.\n";
     let (out, summary) = compensate(program).unwrap();
     let lines: Vec<&str> = out.lines().collect();
-    assert_eq!(lines[2], "/G0 Z40.");
-    assert_eq!(
-        lines[3], "G0 X10.",
-        "Z is still unknown with block delete on"
+    assert_ne!(
+        lines[2], "/G0 Z40.",
+        "corrected: it ends at a known pose when it runs"
     );
-    assert_ne!(lines[4], "G0 Z40.");
+    assert!(lines[2].starts_with('/'), "{out}");
+    assert_ne!(lines[3], "G0 Z40.");
     assert_ne!(lines[5], "G1 X20.");
-    assert_eq!(summary.uncompensated_blocks, 2);
+    assert_eq!(summary.uncompensated_blocks, 0);
 }
 
 // ---------------------------------------------------------------------------------------

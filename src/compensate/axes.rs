@@ -65,6 +65,19 @@ impl Mode for AxesMode {
             *q = state.pos.nominal;
             return Ok(true);
         }
+        // An axis an optional block set where it was unknown is known only when that block
+        // runs: this rapid's end is a pose to correct with block delete off, and unknown
+        // with it on.
+        if let Some(v) = (0..n).find(|&v| !optional && unknown & state.uncertain & (1 << v) != 0) {
+            let letter = pass.axis_name(v);
+            return Err(cx.refuse(
+                cx.first_col(),
+                format!(
+                    "this rapid leaves axis {letter} where the optional block (/) at line {} put it, and {letter} was not known before that block: with block delete off the move ends at a known pose that needs correcting, with it on at an unknown one (program {letter} in this block, or declare the block-delete state: --block-delete, or block_delete in the machine file)",
+                    state.optional_line[v]
+                ),
+            ));
+        }
         // The pose cannot be evaluated: a rapid (in the air; a feed move from an unknown
         // place was refused above) is written as it is, and what the machine is told is
         // what the program says.
@@ -72,6 +85,10 @@ impl Mode for AxesMode {
             let bit = 1u32 << v;
             let Some(i) = *word else { continue };
             if state.pos.unknown & bit != 0 {
+                if optional && !state.modal.incremental {
+                    state.uncertain |= bit;
+                    state.optional_line[v] = cx.line.number;
+                }
                 continue;
             }
             let decimals = cx.number(i).1;
