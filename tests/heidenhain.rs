@@ -1471,3 +1471,45 @@ fn the_other_plane_forms_name_the_same_plane_as_spatial() {
     }
     assert!(out.contains("PLANE RELATIV SPA-30"));
 }
+
+/// The control turns the rotary axes to the plane's nominal angles with the linear axes
+/// standing: the tip moves by the nominal turn, so a cut right after it would start off
+/// the corrected pose. A positioning move after the turn is compensated; a feed move
+/// straight after it is refused at its line, in both forms of the turn.
+#[test]
+fn a_feed_move_right_after_a_turn_to_the_plane_is_refused() {
+    let setup = Setup::load("ac_trunnion", "ac_trunnion");
+    let comp = Compensator::new(&setup.machine, &setup.errors, cli_options()).unwrap();
+    for (turn, after) in [
+        (
+            "5 PLANE SPATIAL SPA-30 SPB0 SPC45 TURN FMAX SEQ- TABLE ROT",
+            "",
+        ),
+        (
+            "5 PLANE SPATIAL SPA-30 SPB0 SPC45 STAY SEQ- TABLE ROT",
+            "6 L A+Q120 C+Q122 R0 FMAX\n",
+        ),
+    ] {
+        let program = |first: &str| {
+            format!(
+                "0 BEGIN PGM P MM\n1 L X+0 Y+0 Z+100 A+0 C+0 R0 FMAX\n{turn}\n{after}{first}\n8 L X+40 Y+25 Z+2 F500\n9 PLANE RESET STAY\n10 M30\n11 END PGM P MM\n"
+            )
+        };
+        let cut = program("7 L X+10 Y+5 Z+30 F500");
+        let err = comp
+            .run(cut.as_bytes(), "p.h", &mut Vec::new())
+            .unwrap_err()
+            .to_string();
+        let line = cut.lines().position(|l| l.starts_with("7 ")).unwrap() + 1;
+        assert!(
+            err.contains(&format!("p.h:{line}:"))
+                && err.contains(
+                    "a feed move right after the rotary axes turned to the working plane"
+                ),
+            "{turn}: {err}"
+        );
+        let positioned = program("7 L X+10 Y+5 Z+30 R0 FMAX");
+        comp.run(positioned.as_bytes(), "p.h", &mut Vec::new())
+            .unwrap_or_else(|e| panic!("{turn}: {e}"));
+    }
+}

@@ -242,6 +242,15 @@ fn what_is_not_followed_is_refused_with_its_place_and_reason() {
             "programmable frame in force",
         ),
         (
+            // The turn moved the tip by the nominal angles: a cut from there starts off
+            // the corrected pose.
+            format!(
+                "{head}N50 CYCLE800(0,\"T\",0,57,0,0,0,-30,0,0,0,0,0,-1,100,1)\nN60 G1 X10 F100\n"
+            ),
+            "p.mpf:6:8:",
+            "a feed move right after the rotary axes turned",
+        ),
+        (
             format!("{head}N50 TRAORI\nN60 CYCLE800()\n"),
             "p.mpf:6:5:",
             "CYCLE800 under TRAORI",

@@ -664,13 +664,20 @@ fn what_a_plane_cannot_do_is_refused_where_it_stands() {
         ),
         ("G53.1 X0\n", "p.nc:4:7", "G53.1 takes no axis words"),
         (
+            // The turn moved the tip by the nominal angles: a cut from there starts off
+            // the corrected pose.
+            "G53.1\nG1 X10. F100\n",
+            "p.nc:5:4",
+            "a feed move right after the rotary axes turned to the working plane with the linear axes standing",
+        ),
+        (
             "G53.1\nG43.4 H1\n",
             "p.nc:5:1",
             "G43.4 under a tilted working plane (G68.2) cannot be compensated (expected G69 before it)",
         ),
         (
-            "G53.1\nG91 G1 X10. F100\n",
-            "p.nc:5:8",
+            "G53.1\nG0 X0 Y0\nG91 G1 X10. F100\n",
+            "p.nc:6:8",
             "incremental moves (G91) under a tilted working plane (G68.2) cannot be compensated",
         ),
         (
@@ -738,7 +745,7 @@ fn a_plane_far_out_on_a_continuous_axis_is_solved() {
     let setup = Setup::load("ac_trunnion");
     let out = compensate(
         &setup,
-        "G21 G90 G94 G17\nG0 X0 Y0 Z50 A0 C999940\nG68.2 X-20. Y0 Z-10. I-60. J35. K60.\nG53.1\nG1 X0 Y0 Z5 F500\nG69\nM30\n",
+        "G21 G90 G94 G17\nG0 X0 Y0 Z50 A0 C999940\nG68.2 X-20. Y0 Z-10. I-60. J35. K60.\nG53.1\nG0 X0 Y0 Z5\nG1 X10. F500\nG69\nM30\n",
     )
     .unwrap();
     assert!(out.contains("G53.1"), "{out}");

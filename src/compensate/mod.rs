@@ -223,6 +223,10 @@ struct State {
     /// The tool length the last block that moved ran with: a feed move under another
     /// (a length changed with the axes standing) would start off the pose it needs.
     moved_length: f64,
+    /// The last block that moved turned the rotary axes to a working plane (G53.1, PLANE
+    /// TURN, CYCLE800) with the linear axes standing: the tip moved by the nominal turn,
+    /// not the corrected one, and a feed move from there would start off the pose it needs.
+    turned_at_rest: bool,
 }
 
 /// The deviation the real machine has at the axis values `told` from the nominal pose at
@@ -520,6 +524,7 @@ impl<'m> Compensator<'m> {
         let modal = Modal::start(self.machine, self.start);
         let mut state = State {
             moved_length: modal.length,
+            turned_at_rest: false,
             modal,
             pass,
             parked: vec![None; self.machine.axes.len()],

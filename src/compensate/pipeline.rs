@@ -280,6 +280,13 @@ impl Pass<'_> {
             ));
         }
         state.moved_length = state.modal.length;
+        if feed && state.turned_at_rest {
+            return Err(cx.refuse(
+                cx.first_col(),
+                "a feed move right after the rotary axes turned to the working plane with the linear axes standing (G53.1, PLANE … TURN, CYCLE800): the controller turns them to the nominal angles, the tip is not where the corrected pose needs it, and the move would start off it (expected a rapid G0 positioning move after the turn)".into(),
+            ));
+        }
+        state.turned_at_rest = false;
         if matches!(cx.motion.kind, MoveKind::Machine | MoveKind::Home) {
             self.leave_coordinates(cx, state);
             return Ok(());

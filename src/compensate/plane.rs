@@ -89,6 +89,7 @@ impl Pass<'_> {
         }
         // CYCLE800 retracts the linear axes it names to the machine's own positions first.
         state.pos.unknown |= cx.motion.homed;
+        state.turned_at_rest = true;
         self.enter_plane(state);
         Ok(())
     }
