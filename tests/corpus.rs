@@ -282,3 +282,87 @@ fn the_heidenhain_cam_programs_compensate_with_consecutive_block_numbers() {
         );
     }
 }
+
+/// `nccomp verify`, the command a CI job runs on a compensated file, passes on what
+/// `nccomp compensate` writes for every CAM program of the corpus that compensates, in
+/// each dialect (tests/verify.rs shows it failing on hand-broken outputs).
+#[test]
+fn nccomp_verify_passes_on_every_compensated_cam_program() {
+    let cam = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus/cam");
+    if !cam.is_dir() {
+        eprintln!("note: {} is not there; test skipped", cam.display());
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("nccomp-corpus-verify-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/corpus");
+    let nccomp = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_nccomp"))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let mut verified = 0;
+    for (program, machine, errors) in [
+        ("hm_dmu85_W5270NS01061A6.h", "dmu85_ac", "dmu85_ac"),
+        ("hm_dmu100p_W5270NS01001B3.h", "dmu100p_bc", "bc_head_table"),
+        ("hm_trimill_W5269NS01002A1.h", "trimill_bc", "bc_head_table"),
+        ("hm_dmc105v_W5269NS01007B12.h", "dmc105v", "three_axis_tnc"),
+        (
+            "fusion_heidenhain_contour-final-outer.h",
+            "fusion_tnc_mill",
+            "three_axis_tnc",
+        ),
+        ("fusion_840d_CAM_TEST.MPF", "fusion_840d_ac", "dmu85_ac"),
+        ("makino_v22_b-c.NCD", "makino_v22", "makino_v22"),
+        (
+            "freecad_centroid_metric_ref.ngc",
+            "centroid_mill",
+            "centroid_mill",
+        ),
+    ] {
+        let original = cam.join(program);
+        let m = fixtures.join(format!("{machine}.machine.toml"));
+        let e = fixtures.join(format!("{errors}.errors.toml"));
+        let (m, e) = (m.to_str().unwrap(), e.to_str().unwrap());
+        let written = dir.join(program);
+        let out = nccomp(&[
+            "compensate",
+            "-m",
+            m,
+            "-e",
+            e,
+            original.to_str().unwrap(),
+            "-o",
+            written.to_str().unwrap(),
+            "-q",
+        ]);
+        assert!(
+            out.status.success(),
+            "{program}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let verify = |path: &Path| {
+            nccomp(&[
+                "verify",
+                "-m",
+                m,
+                "-e",
+                e,
+                original.to_str().unwrap(),
+                path.to_str().unwrap(),
+            ])
+        };
+        let out = verify(&written);
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "{program}: {}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        verified += 1;
+    }
+    eprintln!("nccomp verify: {verified} compensated CAM programs pass");
+    let _ = std::fs::remove_dir_all(&dir);
+}
