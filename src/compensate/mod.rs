@@ -498,8 +498,16 @@ impl<'m> Compensator<'m> {
             self.machine,
             options.path.map(|t| (t.position, t.direction)),
         );
+        let chains_n = self.machine.tool_chains.len();
+        let turn: crate::verify::read::Turn<'_> =
+            std::rc::Rc::new(move |chain, plane, from, length| {
+                (chain < chains_n)
+                    .then(|| self.passes[chain].plane_rotaries(plane, from, length).ok())
+                    .flatten()
+            });
         let gate =
-            crate::verify::Gate::with_chains(self.machine, chains, tolerances, &options.hold);
+            crate::verify::Gate::with_chains(self.machine, chains, tolerances, &options.hold)
+                .with_turn(turn);
         gate.verify(original, written, dialect, self.start, self.block_delete())
     }
 

@@ -58,14 +58,16 @@ impl Pass<'_> {
                 ),
             ));
         }
-        let q = self.plane_rotaries(&plane, state).map_err(|why| {
-            let what = match state.modal.dialect {
-                crate::nc::Dialect::Heidenhain => "turning the rotary axes to the PLANE",
-                crate::nc::Dialect::Sinumerik => "CYCLE800's turn of the rotary axes",
-                crate::nc::Dialect::Iso => "G53.1",
-            };
-            cx.refuse(col, format!("{what} cannot be compensated: {why}"))
-        })?;
+        let q = self
+            .plane_rotaries(&plane, &state.emitted, state.modal.length)
+            .map_err(|why| {
+                let what = match state.modal.dialect {
+                    crate::nc::Dialect::Heidenhain => "turning the rotary axes to the PLANE",
+                    crate::nc::Dialect::Sinumerik => "CYCLE800's turn of the rotary axes",
+                    crate::nc::Dialect::Iso => "G53.1",
+                };
+                cx.refuse(col, format!("{what} cannot be compensated: {why}"))
+            })?;
         out.summary.plane_positions.push((
             cx.line.number,
             (0..self.kin.len())
@@ -222,15 +224,15 @@ impl Pass<'_> {
     /// the tool along `normal`, the one of the solutions within travel that the machine
     /// file's rule picks. A rotary axis whose line lies along the tool there keeps its
     /// current value (it cannot turn the tool).
-    fn plane_rotaries(
+    pub(super) fn plane_rotaries(
         &self,
         plane: &WorkingPlane,
-        state: &State,
+        from: &[f64; MAX_AXES],
+        length: f64,
     ) -> Result<[f64; MAX_AXES], String> {
         let normal = &plane.normal();
         let n = self.kin.len();
-        let length = state.modal.length;
-        let from = state.emitted;
+        let from = *from;
         let order = self.rotary_order();
         let (here, _) = self.kin.pose(Model::Nominal, &from[..n], length);
         let target = Pose {

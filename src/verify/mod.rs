@@ -222,6 +222,9 @@ pub struct Gate<'m> {
     /// Variables whose values the user holds (`--hold`), by chain.
     held: Vec<u32>,
     singular_angle: f64,
+    /// The control's turn to a working plane: with it the gate follows moves in tilted
+    /// planes.
+    turn: Option<read::Turn<'m>>,
 }
 
 /// At most this many written pieces stand for one original move before the gate says
@@ -308,7 +311,15 @@ impl<'m> Gate<'m> {
             tolerances,
             held,
             singular_angle: SolveOptions::default().singular_angle,
+            turn: None,
         }
+    }
+
+    /// This gate following moves in tilted working planes, the rotary axes turned to each
+    /// plane by `turn` (the controller's rule).
+    pub fn with_turn(mut self, turn: read::Turn<'m>) -> Self {
+        self.turn = Some(turn);
+        self
     }
 
     /// The name of a linear axis of chain `chain` that the user holds, if any.
@@ -735,6 +746,10 @@ impl<'m> Gate<'m> {
 
     /// The rotary axes of `o`'s chain that the user does not hold.
     fn free_rotaries(&self, o: &Step) -> usize {
+        if o.plane {
+            // The controller holds the rotary axes where it turned them to the plane.
+            return 0;
+        }
         let kin = self.kin(o.chain, o.shift);
         let held = self.held[o.chain];
         (0..kin.len())
@@ -1146,7 +1161,15 @@ fn lookahead<'g, 'm, 'a>(
 ) -> Lookahead<'g, 'm, read::Items<'m, 'a, impl Iterator<Item = nc::Line<'a>> + use<'a, 'm>>> {
     Lookahead {
         gate,
-        items: read::items(gate.machine, chain, dialect, text.src, text.name, skip),
+        items: read::items(
+            gate.machine,
+            chain,
+            dialect,
+            text.src,
+            text.name,
+            skip,
+            gate.turn.clone(),
+        ),
         buf: None,
         error: None,
         last: [0.0; MAX_AXES],

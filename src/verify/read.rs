@@ -10,7 +10,7 @@ use crate::kinematics::MAX_AXES;
 use crate::model::Machine;
 use crate::nc::{self, Dialect, Token, TokenKind};
 use crate::program::moves::{NominalMove, Shape, follow};
-use crate::program::{BlockMotion, Modal, MoveKind, Reader};
+use crate::program::{BlockMotion, Modal, MoveKind, Reader, WorkingPlane};
 
 /// Why a stretch of a program is not followed by the gate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -83,7 +83,19 @@ pub struct Step {
     /// Under G43.5 (tool vectors): the direction words before and after the block
     /// (normalised); the controller turns each into rotary values.
     pub vector: Option<([f64; 3], [f64; 3])>,
+    /// In a tilted working plane (`tcp` too: the linear values are the tip in the part
+    /// frame, the rotary axes stand where the control turned them): the controller holds
+    /// the rotary axes, so the tool direction is not judged.
+    pub plane: bool,
 }
+
+/// The control's turn of the rotary axes to a working plane (G53.1, PLANE … TURN, the
+/// positioning block after STAY, CYCLE800): tool chain, plane, axis values the turn
+/// starts from, tool length → the rotary values (the other axes as given); `None` where
+/// the nominal machine has no turn.
+pub type Turn<'m> = std::rc::Rc<
+    dyn Fn(usize, &WorkingPlane, &[f64; MAX_AXES], f64) -> Option<[f64; MAX_AXES]> + 'm,
+>;
 
 /// What the gate reads of one block. (Items are made and used one at a time: boxing the
 /// move would allocate per block for nothing.)
@@ -110,6 +122,8 @@ pub struct Follower<'m> {
     /// The tool vector in force under G43.5 (normalised; zero: none given since TCP
     /// came on, the direction the axes stand at).
     vector: [f64; 3],
+    /// The control's turn to a working plane, where the gate follows planes.
+    turn: Option<Turn<'m>>,
 }
 
 impl<'m> Follower<'m> {
@@ -119,6 +133,7 @@ impl<'m> Follower<'m> {
         dialect: Dialect,
         src: &[u8],
         skip_optional: bool,
+        turn: Option<Turn<'m>>,
     ) -> Self {
         let mut modal = Modal::start(machine, chain);
         modal.for_program(dialect, src);
@@ -145,6 +160,7 @@ impl<'m> Follower<'m> {
             has_optional: false,
             after_gap: true,
             vector: [0.0; 3],
+            turn,
         }
     }
 
@@ -201,11 +217,25 @@ impl<'m> Follower<'m> {
         }
         // The control's frame changed: where the axes stand in it is recomputed by the
         // control; the gate does not follow that.
-        if self.modal.tcp != tcp_before || self.modal.working_plane != plane_before {
+        if self.modal.tcp != tcp_before {
             // Until a block gives one, the tool vector is where the axes point it.
             self.vector = [0.0; 3];
             self.pos.unknown = every(self);
             return Ok(Some(self.gap(GapKind::Unknown, line.number)));
+        }
+        if moving && self.motion.kind == MoveKind::ToPlane {
+            return Ok(Some(self.turn_to_plane(line.number)));
+        }
+        if self.modal.working_plane != plane_before {
+            // The words are read in another frame from here: the linear axes' place in it
+            // is not known until a block gives it; the rotary axes stand where they were.
+            self.vector = [0.0; 3];
+            self.pos.unknown |= every(self) & !self.rotary_bits();
+            if !moving {
+                self.after_gap = true;
+                return Ok(None);
+            }
+            return Ok(Some(self.gap(GapKind::Plane, line.number)));
         }
         if !moving {
             // A tool-length change at rest is not a gap: the next move starts at the old
@@ -225,7 +255,7 @@ impl<'m> Follower<'m> {
         {
             // Planes, shifted zeros and arcs under TCP are not followed.
             Some(GapKind::Tcp)
-        } else if self.modal.working_plane.is_some() || motion.kind == MoveKind::ToPlane {
+        } else if self.modal.working_plane.is_some() && !self.follows_plane(&motion) {
             Some(GapKind::Plane)
         } else if self.modal.turning(self.machine) {
             Some(GapKind::Turning)
@@ -235,7 +265,11 @@ impl<'m> Follower<'m> {
             None
         };
         if let Some(kind) = kind {
-            if kind != GapKind::Machine {
+            if matches!(kind, GapKind::Plane | GapKind::Cycle) && !self.modal.tcp {
+                // The gate does not know where these blocks leave the linear axes; the
+                // rotary axes stand (a cycle, or a move in a plane, does not turn them).
+                self.pos.unknown |= every(self) & !self.rotary_bits();
+            } else if kind != GapKind::Machine {
                 // The gate does not know where these blocks leave the axes.
                 self.pos.unknown = every(self);
             }
@@ -300,6 +334,25 @@ impl<'m> Follower<'m> {
                     }
                 }
                 self.after_gap = false;
+                let mut end = end;
+                let plane = self.modal.working_plane.filter(|_| !self.modal.tcp);
+                if let Some(plane) = plane {
+                    // The words are the tip in the plane's frame: the control's
+                    // transformation puts it in the part frame.
+                    let xyz = [b'X', b'Y', b'Z'].map(|l| axes.linear_of(l));
+                    for q in start.iter_mut().chain(std::iter::once(&mut end)) {
+                        let mut w = nalgebra::Vector3::zeros();
+                        for (c, v) in xyz.iter().enumerate() {
+                            w[c] = v.map_or(0.0, |v| q[v]);
+                        }
+                        let p = plane.part(&w);
+                        for (c, v) in xyz.iter().enumerate() {
+                            if let Some(v) = *v {
+                                q[v] = p[c];
+                            }
+                        }
+                    }
+                }
                 Ok(Some(Item::Move(Step {
                     mv: NominalMove {
                         line: line.number,
@@ -313,7 +366,8 @@ impl<'m> Follower<'m> {
                     chain: self.modal.chain,
                     shift: self.modal.shift.unwrap_or([0.0; 3]),
                     rapid: matches!(shape, Shape::Rapid),
-                    tcp: self.modal.tcp,
+                    tcp: self.modal.tcp || plane.is_some(),
+                    plane: plane.is_some(),
                     vector: (self.modal.tcp && self.modal.tcp_vector)
                         .then_some((vector_before, self.vector)),
                 })))
@@ -324,6 +378,70 @@ impl<'m> Follower<'m> {
                 Ok(Some(self.gap(GapKind::Other, line.number)))
             }
         }
+    }
+
+    /// The rotary variables of the active chain.
+    fn rotary_bits(&self) -> u32 {
+        let axes = self.reader.axes(self.modal.chain);
+        (0..axes.len())
+            .filter(|&v| !axes.is_linear(v))
+            .fold(0, |m, v| m | 1 << v)
+    }
+
+    /// Whether a move under the working plane in force is followed: a straight move or
+    /// rapid of X, Y, Z words in a plane the rotary axes were turned to, at the machine
+    /// file's geometry zero (the frame the plane's origin is given in), with the rotary
+    /// axes known.
+    fn follows_plane(&self, motion: &BlockMotion) -> bool {
+        let Some(plane) = self.modal.working_plane else {
+            return false;
+        };
+        let axes = self.reader.axes(self.modal.chain);
+        let rotary = self.rotary_bits();
+        plane.tilted
+            && !plane.rotation_only
+            && self.turn.is_some()
+            && self.modal.shift == Some([0.0; 3])
+            && matches!(motion.kind, MoveKind::Program)
+            && !self.modal.incremental
+            && self.pos.unknown & rotary == 0
+            && (0..axes.len()).all(|v| axes.is_linear(v) || motion.axis_words[v].is_none())
+    }
+
+    /// The control turns the rotary axes to the plane: where they go is the controller's
+    /// rule (the same for the original and the written program); the linear axes' place in
+    /// the plane is known again at the next block that gives X, Y, Z.
+    fn turn_to_plane(&mut self, line: usize) -> Item {
+        let every = (1u32 << self.vars(self.modal.chain)) - 1;
+        let rotary = self.rotary_bits();
+        let turned = match (&self.turn, self.modal.working_plane) {
+            (Some(turn), Some(plane))
+                if self.pos.unknown & rotary == 0 && self.modal.shift == Some([0.0; 3]) =>
+            {
+                turn(
+                    self.modal.chain,
+                    &plane,
+                    &self.pos.nominal,
+                    self.modal.length,
+                )
+            }
+            _ => None,
+        };
+        match turned {
+            Some(q) => {
+                for v in (0..MAX_AXES).filter(|&v| rotary & (1 << v) != 0) {
+                    self.pos.nominal[v] = q[v];
+                    self.pos.exact[v] = crate::program::exact::Position::Decimal {
+                        value: q[v],
+                        decimals: 6,
+                        unit: crate::program::exact::Unit::MM,
+                    };
+                }
+                self.pos.unknown = every & !rotary;
+            }
+            None => self.pos.unknown = every,
+        }
+        self.gap(GapKind::Plane, line)
     }
 
     fn gap(&mut self, kind: GapKind, line: usize) -> Item {
@@ -386,9 +504,10 @@ pub fn items<'m, 'a>(
     src: &'a [u8],
     path: &'a str,
     skip_optional: bool,
+    turn: Option<Turn<'m>>,
 ) -> Items<'m, 'a, impl Iterator<Item = nc::Line<'a>> + use<'a>> {
     Items {
-        follower: Follower::new(machine, chain, dialect, src, skip_optional),
+        follower: Follower::new(machine, chain, dialect, src, skip_optional, turn),
         lines: nc::lines(src),
         src,
         path,
