@@ -190,6 +190,7 @@ impl<'m> Follower<'m> {
         let shift_before = self.modal.shift;
         let every = |f: &Self| (1u32 << f.vars(f.modal.chain)) - 1;
         let tcp_before = self.modal.tcp;
+        let vector_before_read = self.modal.tcp_vector;
         let plane_before = self.modal.working_plane;
         let moving =
             self.reader
@@ -220,7 +221,14 @@ impl<'m> Follower<'m> {
         if self.modal.tcp != tcp_before {
             // Until a block gives one, the tool vector is where the axes point it.
             self.vector = [0.0; 3];
-            self.pos.unknown = every(self);
+            // The linear words change meaning (tip or axes); the rotary axes stand where
+            // their words put them (under G43.5 the controller's solve did: not followed).
+            let kept = if vector_before_read || self.modal.tcp_vector {
+                0
+            } else {
+                self.rotary_bits() & !self.pos.unknown
+            };
+            self.pos.unknown = every(self) & !kept;
             return Ok(Some(self.gap(GapKind::Unknown, line.number)));
         }
         if moving && self.motion.kind == MoveKind::ToPlane {
@@ -389,17 +397,17 @@ impl<'m> Follower<'m> {
     }
 
     /// Whether a move under the working plane in force is followed: a straight move or
-    /// rapid of X, Y, Z words in a plane the rotary axes were turned to, at the machine
-    /// file's geometry zero (the frame the plane's origin is given in), with the rotary
-    /// axes known.
+    /// rapid of X, Y, Z words at the machine file's geometry zero (the frame the plane's
+    /// origin is given in), with the rotary axes known (where the control turned them, or
+    /// where the program left them: the controller's transformation takes them as they
+    /// stand).
     fn follows_plane(&self, motion: &BlockMotion) -> bool {
         let Some(plane) = self.modal.working_plane else {
             return false;
         };
         let axes = self.reader.axes(self.modal.chain);
         let rotary = self.rotary_bits();
-        plane.tilted
-            && !plane.rotation_only
+        !plane.rotation_only
             && self.turn.is_some()
             && self.modal.shift == Some([0.0; 3])
             && matches!(motion.kind, MoveKind::Program)
