@@ -232,6 +232,15 @@ impl<'m> Follower<'m> {
             return Ok(Some(self.gap(GapKind::Unknown, line.number)));
         }
         if moving && self.motion.kind == MoveKind::ToPlane {
+            if self.modal.working_plane.is_none() {
+                // No plane to turn to (CYCLE800() swivels nothing): only the axes it
+                // retracts to machine positions move.
+                if self.motion.homed == 0 {
+                    return Ok(None);
+                }
+                self.pos.unknown |= self.motion.homed;
+                return Ok(Some(self.gap(GapKind::Machine, line.number)));
+            }
             return Ok(Some(self.turn_to_plane(line.number)));
         }
         if self.modal.working_plane != plane_before {
@@ -253,6 +262,7 @@ impl<'m> Follower<'m> {
         let motion = self.motion;
         let kind = if matches!(motion.kind, MoveKind::Machine | MoveKind::Home) {
             self.pos.leave(&motion, n);
+            self.rotary_machine_positions(&motion);
             Some(GapKind::Machine)
         } else if matches!(motion.kind, MoveKind::Cycle) {
             Some(GapKind::Cycle)
@@ -385,6 +395,41 @@ impl<'m> Follower<'m> {
                 self.pos.unknown = every(self);
                 Ok(Some(self.gap(GapKind::Other, line.number)))
             }
+        }
+    }
+
+    /// A move to machine positions (G53, SUPA, M91) where the machine file places program
+    /// zero (`[work_offsets]`): a rotary axis's machine position is its program value, so
+    /// its word makes it known again (the linear axes' words are machine coordinates: the
+    /// next block that programs them makes them known).
+    fn rotary_machine_positions(&mut self, motion: &BlockMotion) {
+        if motion.kind != MoveKind::Machine
+            || motion.optional
+            || self.machine.work_offsets.is_none()
+            || self.modal.shift.is_none()
+            || self.modal.tcp
+            || self.modal.working_plane.is_some()
+        {
+            return;
+        }
+        let rotary = self.rotary_bits();
+        for v in (0..MAX_AXES).filter(|&v| rotary & (1 << v) != 0) {
+            let Some(i) = motion.axis_words[v] else {
+                continue;
+            };
+            let TokenKind::Word(w) = &self.tokens[i].kind else {
+                continue;
+            };
+            let Some(value) = w.number() else {
+                continue;
+            };
+            self.pos.nominal[v] = value;
+            self.pos.exact[v] = crate::program::exact::Position::Decimal {
+                value,
+                decimals: 6,
+                unit: crate::program::exact::Unit::MM,
+            };
+            self.pos.unknown &= !(1 << v);
         }
     }
 
