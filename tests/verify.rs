@@ -213,6 +213,8 @@ fn verify_passes_on_outputs_and_finds_a_hand_broken_word_in_each_dialect() {
         // Moves in tilted working planes: the words are the tip in the plane's frame.
         ("ac_trunnion", "fixtures/tnc_ac_trunnion.h", " FQ1", 'Y'),
         ("ac_trunnion", "fixtures/ac_trunnion_plane.nc", "G1 ", 'X'),
+        // A piece of an arc in a tilted plane, moved off the arc (radially).
+        ("ac_trunnion", "fixtures/ac_trunnion_plane.nc", "N120 G1", 'X'),
     ] {
         let output = compensate_and_verify(&dir, machine, program);
         let text = std::fs::read_to_string(&output).unwrap();

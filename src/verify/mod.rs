@@ -627,7 +627,12 @@ impl<'m> Gate<'m> {
 
     /// The tool tip a TCP block's words `q` give (X, Y, Z in the part frame).
     fn tip_words(&self, step: &Step, q: &[f64; MAX_AXES]) -> nalgebra::Vector3<f64> {
-        self.tip_at(step.chain, q)
+        let words = self.tip_at(step.chain, q);
+        match &step.frame {
+            // In a working plane the words are the tip in the plane's frame.
+            Some(plane) => plane.part(&words),
+            None => words,
+        }
     }
 
     fn tip_at(&self, chain: usize, q: &[f64; MAX_AXES]) -> nalgebra::Vector3<f64> {
@@ -746,7 +751,7 @@ impl<'m> Gate<'m> {
 
     /// The rotary axes of `o`'s chain that the user does not hold.
     fn free_rotaries(&self, o: &Step) -> usize {
-        if o.plane {
+        if o.frame.is_some() {
             // The controller holds the rotary axes where it turned them to the plane.
             return 0;
         }

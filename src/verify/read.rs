@@ -83,10 +83,10 @@ pub struct Step {
     /// Under G43.5 (tool vectors): the direction words before and after the block
     /// (normalised); the controller turns each into rotary values.
     pub vector: Option<([f64; 3], [f64; 3])>,
-    /// In a tilted working plane (`tcp` too: the linear values are the tip in the part
-    /// frame, the rotary axes stand where the control turned them): the controller holds
-    /// the rotary axes, so the tool direction is not judged.
-    pub plane: bool,
+    /// In a working plane (`tcp` too): the linear values are the tip in this frame (the
+    /// words), the rotary axes stand where the control turned them or the program left
+    /// them; the controller holds the rotary axes, so the tool direction is not judged.
+    pub frame: Option<WorkingPlane>,
 }
 
 /// The control's turn of the rotary axes to a working plane (G53.1, PLANE … TURN, the
@@ -352,25 +352,7 @@ impl<'m> Follower<'m> {
                     }
                 }
                 self.after_gap = false;
-                let mut end = end;
                 let plane = self.modal.working_plane.filter(|_| !self.modal.tcp);
-                if let Some(plane) = plane {
-                    // The words are the tip in the plane's frame: the control's
-                    // transformation puts it in the part frame.
-                    let xyz = [b'X', b'Y', b'Z'].map(|l| axes.linear_of(l));
-                    for q in start.iter_mut().chain(std::iter::once(&mut end)) {
-                        let mut w = nalgebra::Vector3::zeros();
-                        for (c, v) in xyz.iter().enumerate() {
-                            w[c] = v.map_or(0.0, |v| q[v]);
-                        }
-                        let p = plane.part(&w);
-                        for (c, v) in xyz.iter().enumerate() {
-                            if let Some(v) = *v {
-                                q[v] = p[c];
-                            }
-                        }
-                    }
-                }
                 Ok(Some(Item::Move(Step {
                     mv: NominalMove {
                         line: line.number,
@@ -385,7 +367,7 @@ impl<'m> Follower<'m> {
                     shift: self.modal.shift.unwrap_or([0.0; 3]),
                     rapid: matches!(shape, Shape::Rapid),
                     tcp: self.modal.tcp || plane.is_some(),
-                    plane: plane.is_some(),
+                    frame: plane,
                     vector: (self.modal.tcp && self.modal.tcp_vector)
                         .then_some((vector_before, self.vector)),
                 })))
@@ -441,8 +423,8 @@ impl<'m> Follower<'m> {
             .fold(0, |m, v| m | 1 << v)
     }
 
-    /// Whether a move under the working plane in force is followed: a straight move or
-    /// rapid of X, Y, Z words at the machine file's geometry zero (the frame the plane's
+    /// Whether a move under the working plane in force is followed: a straight move, arc
+    /// or rapid of X, Y, Z words at the machine file's geometry zero (the frame the plane's
     /// origin is given in), with the rotary axes known (where the control turned them, or
     /// where the program left them: the controller's transformation takes them as they
     /// stand).
@@ -455,7 +437,7 @@ impl<'m> Follower<'m> {
         !plane.rotation_only
             && self.turn.is_some()
             && self.modal.shift == Some([0.0; 3])
-            && matches!(motion.kind, MoveKind::Program)
+            && matches!(motion.kind, MoveKind::Program | MoveKind::Arc { .. })
             && !self.modal.incremental
             && self.pos.unknown & rotary == 0
             && (0..axes.len()).all(|v| axes.is_linear(v) || motion.axis_words[v].is_none())
