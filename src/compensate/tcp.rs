@@ -31,7 +31,7 @@ use crate::kinematics::{MAX_AXES, Model, Pose, Solution, SolveOptions, angle_bet
 use crate::model::AxisKind;
 use crate::nc::edit::Editor;
 use crate::nc::number::{decimals_for, same_text, write_fixed};
-use crate::program::arc::{centre_words, circle, plane_letters};
+use crate::program::arc::{plane_arc, plane_letters, plane_third};
 use crate::program::exact::{Position, Unit};
 use crate::program::{WorkingPlane, gcode, heidenhain};
 use nalgebra::Vector3;
@@ -257,6 +257,12 @@ impl Mode for TcpMode {
                 None => guess[v] = value,
             }
         }
+        if let Some(clockwise) = self.arc {
+            // The arc's end: a TNC polar arc's and a helix's are not all in its words.
+            let (arc, end) = self.tip_arc(cx, state, clockwise)?;
+            self.tip_arc = Some(arc);
+            state.tip_nominal = end.into();
+        }
         let words = Vector3::from(state.tip_nominal);
         let tip = self.part(&words);
         let nominal = if vector {
@@ -314,9 +320,6 @@ impl Mode for TcpMode {
             }
             sol.q
         };
-        if let Some(clockwise) = self.arc {
-            self.tip_arc = Some(self.tip_arc(cx, state, clockwise, words)?);
-        }
         // Under G43.5 at a singular pose the rotary axes keep their programmed values: the
         // vector is then written as programmed, and the controller holds the free axis where
         // it stands. The programmed axis values hold it where the program left it (the next
@@ -477,26 +480,26 @@ pub(super) fn round(x: f64, d: u8) -> f64 {
 }
 
 impl TcpMode {
-    /// The tip's arc of the block, in the modal plane, from the programmed start tip to
-    /// `end`.
+    /// The tip's arc of the block, in the modal plane, from the programmed start tip to the
+    /// end its words give (the programmed tip words, `state.tip_nominal`), and that end.
     fn tip_arc(
         &self,
         cx: &Cx<'_, '_>,
         state: &State,
         clockwise: bool,
-        end: Vector3<f64>,
-    ) -> Result<TipArc, Diagnostic> {
+    ) -> Result<(TipArc, Vector3<f64>), Diagnostic> {
         let col = cx
             .motion
             .arc_code
             .map_or_else(|| cx.first_col(), |i| cx.col(i));
         let refuse = |why: String| cx.refuse(col, format!("this arc cannot be compensated: {why}"));
-        // The tip components of the plane's two axes.
-        let Some((plane, centre_letters)) = plane_letters(state.modal.plane) else {
+        // The tip components of the plane's two axes and of the third.
+        let Some((plane, _)) = plane_letters(state.modal.plane) else {
             return Err(refuse("arcs in a U/V/W plane are not supported".into()));
         };
         let component = |letter: u8| usize::from(letter - b'X');
         let (a, b) = (component(plane[0]), component(plane[1]));
+        let c = component(plane_third(state.modal.plane));
         if state.modal.inverse_time && cx.word(b'F').is_none() {
             return Err(refuse(
                 "in inverse-time feed (G93) an arc needs its own F word".into(),
@@ -505,23 +508,33 @@ impl TcpMode {
         if cx.word(b'P').is_some() {
             return Err(refuse("a P word (several turns) is not supported".into()));
         }
-        let c = circle(
-            (self.tip0[a], self.tip0[b]),
-            (end[a], end[b]),
+        let at = |t: &Vector3<f64>| [t[a], t[b], t[c]];
+        let words = Vector3::from(state.tip_nominal);
+        let (e, circle) = plane_arc(
+            cx.tokens,
+            cx.motion,
+            &state.modal,
             clockwise,
-            centre_words(cx.tokens, cx.motion, centre_letters, &state.modal),
-            state.modal.arc_absolute,
+            at(&self.tip0),
+            at(&words),
         )
         .map_err(refuse)?;
-        Ok(TipArc {
-            a,
-            b,
-            centre: c.centre,
-            r0: c.r0,
-            r1: c.r1,
-            th0: c.th0,
-            sweep: c.sweep,
-        })
+        let mut end = words;
+        end[a] = e[0];
+        end[b] = e[1];
+        end[c] = e[2];
+        Ok((
+            TipArc {
+                a,
+                b,
+                centre: circle.centre,
+                r0: circle.r0,
+                r1: circle.r1,
+                th0: circle.th0,
+                sweep: circle.sweep,
+            },
+            end,
+        ))
     }
 
     /// The programmed tip (in the part frame) and nominal axis values at parameter `s` of
