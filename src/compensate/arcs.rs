@@ -277,7 +277,7 @@ pub(super) fn straighten(cx: &Cx<'_, '_>, out: &mut Out<'_>, pieces_inserted: bo
 
 /// Give a kept arc modal in the original its G2/G3 (`clockwise`: G2) before its first
 /// axis word.
-fn restore_arc_code(cx: &Cx<'_, '_>, out: &mut Out<'_>, clockwise: bool) {
+pub(super) fn restore_arc_code(cx: &Cx<'_, '_>, out: &mut Out<'_>, clockwise: bool) {
     let first = cx
         .motion
         .axis_words

@@ -98,7 +98,7 @@ impl ArcPath {
 
 /// The signed sweep G2 (`clockwise`) or G3 commands from angle `th0` to `th1`: in
 /// [-2π, 0) for G2, (0, 2π] for G3; equal angles make a full circle.
-fn commanded_sweep(th0: f64, th1: f64, clockwise: bool) -> f64 {
+pub fn commanded_sweep(th0: f64, th1: f64, clockwise: bool) -> f64 {
     if clockwise {
         let s = -(th0 - th1).rem_euclid(TAU);
         if s == 0.0 { -TAU } else { s }

@@ -55,6 +55,8 @@ pub struct Tnc {
     pub plane_angles: bool,
     /// The circle centre (pole) of the last CC.
     pub pole: Option<Pole>,
+    /// The CC blocks read so far.
+    pub poles: u64,
     /// The program's labels.
     pub labels: Arc<Labels>,
     /// How deep in label calls the block being read is.
@@ -77,6 +79,9 @@ pub struct Pole {
     /// The frame its coordinates were given in: the working plane's origin and axes, or
     /// the datum shift outside a plane.
     pub frame: [f64; 12],
+    /// Which CC of the program set it (counted from 1): a pole set again to the same
+    /// coordinates is another.
+    pub seq: u64,
 }
 
 /// The frame a TNC block's coordinates are given in: the working plane in force (its
@@ -652,10 +657,12 @@ impl Reader<'_> {
                 ));
             }
         };
+        tnc.poles += 1;
         tnc.pole = Some(Pole {
             plane,
             centre,
             frame: frame_of(modal, tnc),
+            seq: tnc.poles,
         });
         Ok(())
     }
