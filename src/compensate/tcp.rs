@@ -1068,6 +1068,13 @@ impl TcpMode {
         let Some(m1) = solved(&m1) else {
             return Ok(None);
         };
+        // A TNC arc written as CP ends where its angle puts it, not at end words: it aims
+        // at the end as solved, not as end words would round it.
+        let polar = cx.motion.centre.is_some() && self.polar_form(pass, cx, state, start, end);
+        let aim = match solved(end) {
+            Some(e) if polar => e,
+            _ => end.tip,
+        };
         let m2 = if full {
             let m2 = self.point(pass, cx, s2, hold, state)?;
             match solved(&m2) {
@@ -1075,7 +1082,7 @@ impl TcpMode {
                 None => return Ok(None),
             }
         } else {
-            end.tip
+            aim
         };
         if end
             .solution
@@ -1094,28 +1101,67 @@ impl TcpMode {
         let [va, vb] = [self.tips[a], self.tips[b]];
         let d_centre = |v: usize| pass.res_decimals(v, centre_unit);
         let clockwise = arc.sweep < 0.0;
-        let (start_p, end_p) = (plane(&start.tip), plane(&end.tip));
+        let (start_p, end_p) = (plane(&start.tip), plane(&aim));
         // The centre words as written, and the centre the control takes from them.
         let (kept, written_centre) = if let Some(pole) = cx.motion.centre {
             // A TNC arc about its pole: a CC block before it, absolute, unless the
             // control holds that pole already.
-            let mut words = Vec::new();
-            let mut value = [0.0; 2];
             let held = match (state.pole_written, current_pole(state)) {
                 (Some((seq, w)), Some(now)) if seq == now => w,
                 _ => pole,
             };
-            let mut same = true;
-            for (k, (&v, x)) in [va, vb].iter().zip([centre.0, centre.1]).enumerate() {
-                let d = d_centre(v);
-                let mut text = String::new();
-                write_fixed(x / unit, d, &mut text);
-                value[k] = round(x / unit, d) * unit;
-                same &= same_text(held[k] / unit, x / unit, d);
-                words.push((pass.letter(v), text));
-            }
+            let d = [d_centre(va), d_centre(vb)];
+            let step = |k: usize| 10f64.powi(-i32::from(d[k]));
+            let fitted = [centre.0, centre.1];
+            let same = (0..2).all(|k| same_text(held[k] / unit, fitted[k] / unit, d[k]));
+            let value = if same {
+                held
+            } else {
+                // The pole as written: of the values within three digits of the fitted
+                // centre the one about which the control's arc ends nearest the end (a
+                // CP's end lies at the start's radius, at its angle rounded as written; a
+                // C's written end at a radius the start's should match), then the nearest.
+                let rounded = [0, 1].map(|k| round(fitted[k] / unit, d[k]));
+                let absolute = matches!(cx.motion.polar, Some((_, false)));
+                let miss = |c: [f64; 2]| {
+                    let r0 = (start_p.0 - c[0]).hypot(start_p.1 - c[1]);
+                    let r1 = (end_p.0 - c[0]).hypot(end_p.1 - c[1]);
+                    if !polar {
+                        return (r0 - r1).abs();
+                    }
+                    let th0 = (start_p.1 - c[1]).atan2(start_p.0 - c[0]);
+                    let th1 = (end_p.1 - c[1]).atan2(end_p.0 - c[0]);
+                    let sweep = th1 - th0 + TAU * ((arc.sweep - (th1 - th0)) / TAU).round();
+                    let theta = if absolute {
+                        round((th0 + sweep).to_degrees(), ANGLE_DECIMALS).to_radians()
+                    } else {
+                        th0 + round(sweep.to_degrees(), ANGLE_DECIMALS).to_radians()
+                    };
+                    (c[0] + r0 * theta.cos() - end_p.0).hypot(c[1] + r0 * theta.sin() - end_p.1)
+                };
+                let mut best = (f64::INFINITY, f64::INFINITY, [0.0; 2]);
+                for di in -3i32..=3 {
+                    for dj in -3i32..=3 {
+                        let c = [
+                            (rounded[0] + f64::from(di) * step(0)) * unit,
+                            (rounded[1] + f64::from(dj) * step(1)) * unit,
+                        ];
+                        let key = (miss(c), (c[0] - fitted[0]).hypot(c[1] - fitted[1]));
+                        if key.0 < best.0 - 1e-12 || (key.0 <= best.0 + 1e-12 && key.1 < best.1) {
+                            best = (key.0, key.1, c);
+                        }
+                    }
+                }
+                best.2
+            };
+            let mut words: Vec<(u8, String)> = (0..2)
+                .map(|k| {
+                    let mut text = String::new();
+                    write_fixed(value[k] / unit, d[k], &mut text);
+                    (pass.letter([va, vb][k]), text)
+                })
+                .collect();
             words.sort_by_key(|(letter, _)| *letter);
-            let value = if same { held } else { value };
             (
                 KeptCentre::Pole((!same).then_some(words), value, None),
                 (value[0], value[1]),
@@ -1202,7 +1248,7 @@ impl TcpMode {
         };
         let mut ctrl_end = end.tip;
         let kept = match kept {
-            KeptCentre::Pole(words, value, _) if self.polar_form(pass, cx, state, start, end) => {
+            KeptCentre::Pole(words, value, _) if polar => {
                 // The sweep nearest the programmed one: whole turns are the angle's.
                 let sweep = ctrl.sweep + TAU * ((arc.sweep - ctrl.sweep) / TAU).round();
                 let absolute = matches!(cx.motion.polar, Some((_, false)));
@@ -1222,7 +1268,7 @@ impl TcpMode {
                 let mut lead = None;
                 if !given {
                     let d = state.decimals[vc].max(pass.res_decimals(vc, Unit::inch(inch)));
-                    let rise = round((end.tip[third] - start.tip[third]) / unit, d);
+                    let rise = round((aim[third] - start.tip[third]) / unit, d);
                     ctrl_end[third] = start.tip[third] + rise * unit;
                     if cx.motion.lead.is_some() || !same_text(rise, 0.0, d) {
                         let mut text = String::new();

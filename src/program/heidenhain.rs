@@ -2002,13 +2002,18 @@ pub fn number_of(content: &[u8], tokens: &[Token]) -> Option<u64> {
         .ok()
 }
 
-/// The words a block inserted before an L block repeats: its radius compensation (R0).
+/// The words a block inserted before an L block repeats: its radius compensation (R0;
+/// not a CR arc's radius).
 pub fn carried_words(tokens: &[Token]) -> impl Iterator<Item = usize> + '_ {
     tokens
         .iter()
         .enumerate()
         .filter_map(|(i, t)| match &t.kind {
-            TokenKind::Word(w) if w.letter == b'R' => Some(i),
+            TokenKind::Word(w)
+                if w.letter == b'R' && matches!(w.value, Value::Number { value, .. } if value == 0.0) =>
+            {
+                Some(i)
+            }
             _ => None,
         })
 }
