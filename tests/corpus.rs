@@ -231,6 +231,21 @@ fn the_heidenhain_cam_programs_compensate_with_consecutive_block_numbers() {
             "three_axis_tnc",
             0,
         ),
+        // CC/C arcs in a tilted working plane (hyperMILL's identity plane), kept as arcs
+        // with a pole of their own where the compensated end needs one.
+        (
+            "hm_dmu85_W5246NS01007B11.h",
+            "dmu85_ac_b11",
+            "dmu85_ac",
+            1,
+        ),
+        // CP helices (IPA, IZ) and C arcs in a plane tilted to the horizontal.
+        (
+            "hm_trimill_W5269NS01002A16.h",
+            "trimill_bc_a16",
+            "bc_head_table",
+            4,
+        ),
         (
             "fusion_heidenhain_contour-final-outer.h",
             "fusion_tnc_mill",
@@ -308,6 +323,12 @@ fn nccomp_verify_passes_on_every_compensated_cam_program() {
         ("hm_dmu100p_W5270NS01001B3.h", "dmu100p_bc", "bc_head_table"),
         ("hm_trimill_W5269NS01002A1.h", "trimill_bc", "bc_head_table"),
         ("hm_dmc105v_W5269NS01007B12.h", "dmc105v", "three_axis_tnc"),
+        ("hm_dmu85_W5246NS01007B11.h", "dmu85_ac_b11", "dmu85_ac"),
+        (
+            "hm_trimill_W5269NS01002A16.h",
+            "trimill_bc_a16",
+            "bc_head_table",
+        ),
         (
             "fusion_heidenhain_contour-final-outer.h",
             "fusion_tnc_mill",
