@@ -214,7 +214,12 @@ fn verify_passes_on_outputs_and_finds_a_hand_broken_word_in_each_dialect() {
         ("ac_trunnion", "fixtures/tnc_ac_trunnion.h", " FQ1", 'Y'),
         ("ac_trunnion", "fixtures/ac_trunnion_plane.nc", "G1 ", 'X'),
         // A piece of an arc in a tilted plane, moved off the arc (radially).
-        ("ac_trunnion", "fixtures/ac_trunnion_plane.nc", "N120 G1", 'X'),
+        (
+            "ac_trunnion",
+            "fixtures/ac_trunnion_plane.nc",
+            "N120 G1",
+            'X',
+        ),
     ] {
         let output = compensate_and_verify(&dir, machine, program);
         let text = std::fs::read_to_string(&output).unwrap();
@@ -483,4 +488,42 @@ fn a_prediction_beyond_the_tolerance_is_refused_at_its_line() {
         comp.predicted_beyond(&summary(0.0009), "p.nc", src)
             .is_none()
     );
+}
+
+/// A move that leaves a rotary travel limit starts with the direction error the held axis
+/// leaves there (reported, not correctable); between its ends the tool may turn the
+/// tolerance beyond what its ends leave, as its position may: not a finding.
+#[test]
+fn a_move_from_a_rotary_travel_limit_is_judged_above_what_its_start_leaves() {
+    let dir = scratch("verify-limit");
+    let program = write(
+        &dir,
+        "limit.nc",
+        "G21 G90 G17\nG0 X-26.1651 Y-129.4646 Z-45.2374 A30. C97.0494\nG1 F1000\nX-25.7053 Y-129.6485 Z-45.8778 A30.0000 C96.7823\nX-27.5722 Y-130.8507 Z-46.8323 A29.6620 C96.2629\nX-28.2151 Y-129.4814 Z-47.8085 A29.5890 C95.8828\nM30\n",
+    );
+    let m = "fixtures/ac_trunnion.machine.toml";
+    let e = "fixtures/ac_trunnion.errors.toml";
+    let output = dir.join("limit.comp.nc");
+    let out = nccomp(&[
+        "compensate",
+        "-m",
+        m,
+        "-e",
+        e,
+        s(&program),
+        "-o",
+        s(&output),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(stderr(&out).contains("travel limit"), "{}", stderr(&out));
+    // The move's end is still judged: the same program with its last A word turned by
+    // 0.01° is found.
+    let written = std::fs::read_to_string(&output).unwrap();
+    let broken = write(
+        &dir,
+        "limit.broken.nc",
+        &nudge(&written, "X-28.", 'A', 0.01),
+    );
+    let check = nccomp(&["verify", "-m", m, "-e", e, s(&program), s(&broken)]);
+    assert_eq!(check.status.code(), Some(1), "{}", stdout(&check));
 }

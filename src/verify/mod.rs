@@ -971,6 +971,20 @@ impl<'m> Gate<'m> {
                 };
                 start.max(end_devs[k]) - Tolerances::rounding(this.machine)
             };
+            // The same for the direction: what the piece's ends leave (a rotary axis
+            // held at a travel limit or at a singular pose, where the pass reports it).
+            let direction_floor = |this: &Self| {
+                let (Some(ws), Some(os)) = (w.mv.start, o.mv.start) else {
+                    return 0.0;
+                };
+                let os = if k == 0 { os } else { o.mv.at(s0, n) };
+                let start = angle_between(&this.real_at(w, &ws).o, &this.nominal_at(o, &os).o);
+                let end = angle_between(
+                    &this.real_at(w, &w.mv.end).o,
+                    &this.nominal_at(o, &o.mv.at(s1, n)).o,
+                );
+                start.max(end)
+            };
             if worst_p > path_p && worst_p > path_p + floor(self).max(0.0) {
                 found.push((
                     w.mv.line,
@@ -979,7 +993,7 @@ impl<'m> Gate<'m> {
                         worst_p, o.mv.line, path_p
                     ),
                 ));
-            } else if worst_d > path_d {
+            } else if worst_d > path_d && worst_d > path_d + direction_floor(self) {
                 found.push((
                     w.mv.line,
                     format!(
