@@ -414,3 +414,212 @@ fn fanuc_k_repeats_holes_as_haas_l_does() {
         assert!(err.contains(at), "{err}");
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// Heidenhain drilling cycles outside a plane (CYCL DEF 200 … called by M99).
+
+/// The holes a TNC program drills in machine axes, read as the control reads them (not by
+/// nccomp's reader): the drilling cycle defined last (`CYCL DEF 200` … `209`, however the
+/// spaces fall, with its `~` lines: Q200 the set-up clearance, Q201 the depth, Q203 the
+/// surface; `Q200=3`, `Q200=  3` and `Q200 = 3` alike) is called by `M99` at the X, Y of the
+/// `L` block that carries it. `CYCL DEF 9` (dwell time) acts where it stands: it is never
+/// called and leaves the called cycle as it was. Each hole: (x, y, bottom, set-up
+/// clearance), mm.
+fn tnc_holes(program: &str) -> Vec<[f64; 4]> {
+    let (mut x, mut y) = (f64::NAN, f64::NAN);
+    // Q200, Q201, Q203 of the cycle being defined and of the one in force.
+    let (mut defining, mut in_force): (Option<[f64; 3]>, Option<[f64; 3]>) = (None, None);
+    let mut continued = false;
+    let mut holes = Vec::new();
+    for line in program.lines() {
+        let body = line.split(';').next().unwrap();
+        let was_continued = continued;
+        continued = line.trim_end().ends_with('~');
+        if was_continued {
+            let compact: String = body
+                .chars()
+                .filter(|c| !c.is_whitespace() && *c != '~')
+                .collect();
+            if let (Some(def), Some((name, value))) = (defining.as_mut(), compact.split_once('='))
+            {
+                let k = match name {
+                    "Q200" => 0,
+                    "Q201" => 1,
+                    "Q203" => 2,
+                    _ => 3,
+                };
+                if k < 3 {
+                    def[k] = value.parse().unwrap();
+                }
+            }
+            if !continued && defining.is_some() {
+                in_force = defining.take();
+            }
+            continue;
+        }
+        let mut words = body.split_whitespace();
+        let _number = words.next();
+        let rest: Vec<&str> = words.collect();
+        match rest.first().copied() {
+            Some("CYCL") => {
+                let compact: String = rest[1..].concat();
+                let number: String = compact
+                    .strip_prefix("DEF")
+                    .expect("CYCL DEF")
+                    .chars()
+                    .take_while(char::is_ascii_digit)
+                    .collect();
+                match number.parse::<u32>().unwrap() {
+                    200..=209 => defining = Some([f64::NAN; 3]),
+                    9 => {}
+                    other => panic!("cycle {other} is not in these programs"),
+                }
+            }
+            Some("L") => {
+                for w in &rest[1..] {
+                    if let Some(v) = w.strip_prefix('X') {
+                        x = v.parse().unwrap();
+                    } else if let Some(v) = w.strip_prefix('Y') {
+                        y = v.parse().unwrap();
+                    }
+                }
+                if rest.contains(&"M99") {
+                    let [q200, q201, q203] = in_force.expect("a call of a defined cycle");
+                    holes.push([x, y, q203 + q201, q203 + q200]);
+                }
+            }
+            _ => {}
+        }
+    }
+    holes
+}
+
+/// How far each hole of `written` is from the same hole of `program` on the AC trunnion at
+/// A0 C0 (mm): the largest distance of the real tip from the programmed bottom, and of the
+/// real tip at the written set-up clearance from the programmed hole's axis (the line
+/// through its bottom and its clearance point; where the tool stands along it, in the air,
+/// is not judged).
+fn tnc_holes_land(kin: &Kinematics, program: &str, written: &str) -> (usize, f64, f64) {
+    let (nominal, actual) = (tnc_holes(program), tnc_holes(written));
+    assert_eq!(nominal.len(), actual.len(), "{written}");
+    let (mut bottom, mut clearance): (f64, f64) = (0.0, 0.0);
+    for (n, a) in nominal.iter().zip(&actual) {
+        let meant = |k: usize| kin.pose(Model::Nominal, &[n[0], n[1], n[k], 0.0, 0.0], 0.0).0.p;
+        let reached = |k: usize| kin.pose(Model::Actual, &[a[0], a[1], a[k], 0.0, 0.0], 0.0).0.p;
+        bottom = bottom.max((reached(2) - meant(2)).norm());
+        clearance = clearance.max(off_axis(reached(3), meant(2), meant(3)));
+    }
+    (nominal.len(), bottom, clearance)
+}
+
+/// The distance of `p` from the line through `a` and `b`.
+fn off_axis(p: Vector3<f64>, a: Vector3<f64>, b: Vector3<f64>) -> f64 {
+    let d = (b - a).normalize();
+    let v = p - a;
+    (v - d * v.dot(&d)).norm()
+}
+
+/// A TNC drilling program on the AC trunnion at A0 C0, its definition's lines `params`.
+fn tnc_drilling(params: &str, between: &str) -> String {
+    format!(
+        "0 BEGIN PGM D MM\n1 L X+0 Y+0 Z+50 A+0 C+0 R0 FMAX\n2 CYCL DEF 200 DRILLING~\n{params}\n\
+         3 L X+10 Y+20 R0 FMAX M99\n{between}\n5 L X+40 Y-15 R0 FMAX M99\n\
+         6 L X-60 Y+35 R0 FMAX M99\n7 L Z+100 R0 FMAX\n8 M30\n9 END PGM D MM\n"
+    )
+}
+
+#[test]
+fn tnc_cycle_spellings_the_control_accepts_are_read_alike() {
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = shop_errors(&machine, &mut Lcg(41));
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let run = |program: &str| {
+        let mut out = Vec::new();
+        comp.run(program.as_bytes(), "d.h", &mut out)
+            .map(|_| String::from_utf8(out).unwrap())
+    };
+    let plain = "    Q200=3 ;SET-UP CLEARANCE~\n    Q201=-12 ;DEPTH~\n    Q206=150 ;FEED RATE FOR PLUNGING~\n    Q203=-1.5 ;SURFACE COORDINATE~\n    Q204=30 ;2ND SET-UP CLEARANCE";
+    let spaced = "    Q200=  3 ;SET-UP CLEARANCE~\n    Q201 = -12 ;DEPTH~\n    Q206=  150 ;FEED RATE FOR PLUNGING~\n    Q203=   -1.5 ;SURFACE COORDINATE~\n    Q204 =30 ;2ND SET-UP CLEARANCE";
+    let mut written = Vec::new();
+    for (params, dwell) in [
+        (plain, "4 CYCL DEF 9.0 DWELL TIME\n4 CYCL DEF 9.1 DWELL 1.5"),
+        (plain, "4 CYCL DEF9.0 VERWEILZEIT\n4 CYCL DEF9.1 V.ZEIT 0"),
+        (spaced, "4 CYCL DEF 9 .0 DWELL TIME\n4 CYCL DEF 9 .1 DWELL 2"),
+        (spaced, "4 CYCL DEF9 .0 VARAKOZASI IDO\n4 CYCL DEF9.1 V.IDO5"),
+    ] {
+        let program = tnc_drilling(params, dwell);
+        let out = run(&program).unwrap_or_else(|e| panic!("{program}\n{e}"));
+        // Every hole drills with cycle 200 (the dwell between calls replaces nothing), at
+        // the depth and clearance its parameters give, spaced or not.
+        let holes = tnc_holes(&program);
+        assert_eq!(holes.len(), 3);
+        assert!(holes.iter().all(|h| h[2] == -13.5 && h[3] == 1.5), "{holes:?}");
+        let (n, bottom, clearance) = tnc_holes_land(&kin, &program, &out);
+        assert_eq!(n, 3);
+        assert!(bottom < 2e-4, "a bottom is {:.3} µm off\n{out}", bottom * 1e3);
+        assert!(clearance < 1e-3, "{:.3} µm at the clearance", clearance * 1e3);
+        // Uncompensated, the same holes are microns off: the check can fail.
+        let (_, as_programmed, _) = tnc_holes_land(&kin, &program, &program);
+        assert!(as_programmed > 5e-3, "{as_programmed}");
+        written.push(out);
+    }
+    // The dwell's spelling changes nothing that is written.
+    let strip = |s: &str| {
+        s.lines()
+            .filter(|l| !l.contains("CYCL DEF 9") && !l.contains("CYCL DEF9"))
+            .map(|l| l.replace(' ', ""))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(strip(&written[0]), strip(&written[1]));
+    assert_eq!(strip(&written[2]), strip(&written[3]));
+    // A copy of the definition with another Q203 keeps the spacing it does not change.
+    assert!(written[2].contains("Q200=  3 ;SET-UP"), "{}", written[2]);
+}
+
+#[test]
+fn tnc_cycle_definitions_the_control_refuses_are_refused_with_their_place() {
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = shop_errors(&machine, &mut Lcg(41));
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let params = "    Q200=3 ;SET-UP CLEARANCE~\n    Q201=-12 ;DEPTH~\n    Q203=-1.5 ;SURFACE COORDINATE~\n    Q204=30 ;2ND SET-UP CLEARANCE";
+    for (program, at) in [
+        (
+            tnc_drilling(params, "4 CYCL DEFX.0 DWELL"),
+            "d.h:9:11: `X.0`: expected a cycle number after CYCL DEF",
+        ),
+        (
+            tnc_drilling(params, "4 CYCL DEF 9 0 DWELL"),
+            // `9 0`: the sub-block must follow the dot (the control's `9.0` or `9 .0`):
+            // read as cycle 9, whose other tokens are not read.
+            "",
+        ),
+        (
+            tnc_drilling(
+                "    Q200= ;SET-UP CLEARANCE~\n    Q201=-12 ;DEPTH~\n    Q203=-1.5",
+                "",
+            ),
+            "d.h:4:5: `Q200=` in a cycle definition: expected its value",
+        ),
+        (
+            tnc_drilling("    Q200 3 ;SET-UP CLEARANCE~\n    Q201=-12", ""),
+            "d.h:4:5: `Q200` in a cycle definition: expected a parameter such as Q200=2",
+        ),
+        (
+            tnc_drilling("    Q200=Q7 ;SET-UP CLEARANCE~\n    Q201=-12 ;DEPTH~\n    Q203=-1.5", ""),
+            "d.h:7:23: the call of cycle 200 (defined at line 3) cannot be compensated: Q200 is given by Q7, which the program never sets",
+        ),
+        (
+            "0 BEGIN PGM D MM\n1 L X+0 Y+0 Z+50 A+0 C+0 R0 FMAX\n2 CYCL DEF 9.0 DWELL TIME\n3 CYCL DEF 9.1 DWELL 1\n4 L X+10 Y+20 R0 FMAX M99\n5 END PGM D MM\n".to_string(),
+            "d.h:5:23: a cycle call, but no cycle is defined",
+        ),
+    ] {
+        let result = comp.run(program.as_bytes(), "d.h", &mut Vec::new());
+        if at.is_empty() {
+            assert!(result.is_ok(), "{program}: {result:?}");
+            continue;
+        }
+        let err = result.unwrap_err().to_string();
+        assert!(err.contains(at), "{program}\n{err}");
+    }
+}

@@ -340,21 +340,48 @@ fn surface_text(def: &CycleDef) -> Option<(u8, f64)> {
         return Some((u8::try_from(decimals).ok()?, text.parse().ok()?));
     }
     def.text.iter().find_map(|line| {
-        let (_, value) = value_at(line, b"Q203=")?;
+        let (_, value) = value_at(line, b"Q203")?;
         let text = std::str::from_utf8(value).ok()?;
         let decimals = text.split_once('.').map_or(0, |(_, f)| f.len());
         Some((u8::try_from(decimals).ok()?, text.parse().ok()?))
     })
 }
 
-/// The bytes after `key` up to a space, `;` or `~`, and where they start.
+/// The value parameter `key` (`Q203`) is set to in a definition line: where its text
+/// starts and its bytes (up to a space, `;` or `~`), however the spaces fall around the `=`
+/// (`Q203=-1.5`, `Q203=  -1.5`, `Q203 = -1.5`). Not in the line's comment, nor another
+/// parameter (`Q2030`) or a value (`Q204=Q203`).
 fn value_at<'a>(line: &'a [u8], key: &[u8]) -> Option<(usize, &'a [u8])> {
-    let start = line.windows(key.len()).position(|w| w == key)? + key.len();
-    let len = line[start..]
-        .iter()
-        .take_while(|b| !matches!(b, b' ' | b'\t' | b';' | b'~' | b'\r'))
-        .count();
-    Some((start, &line[start..start + len]))
+    let end = line.iter().position(|&b| b == b';').unwrap_or(line.len());
+    let line = &line[..end];
+    let blank = |b: Option<&u8>| matches!(b, Some(b' ' | b'\t'));
+    let mut from = 0;
+    while let Some(found) = line[from..].windows(key.len()).position(|w| w == key) {
+        let start = from + found;
+        from = start + 1;
+        let mut i = start + key.len();
+        if line.get(i).is_some_and(u8::is_ascii_digit)
+            || (start > 0 && !matches!(line[start - 1], b' ' | b'\t'))
+        {
+            continue;
+        }
+        while blank(line.get(i)) {
+            i += 1;
+        }
+        if line.get(i) != Some(&b'=') {
+            continue;
+        }
+        i += 1;
+        while blank(line.get(i)) {
+            i += 1;
+        }
+        let len = line[i..]
+            .iter()
+            .take_while(|b| !matches!(b, b' ' | b'\t' | b'~' | b'\r'))
+            .count();
+        return Some((i, &line[i..i + len]));
+    }
+    None
 }
 
 /// The definition's lines with `Q203=` set to `number` and the block number it takes as a
@@ -422,7 +449,7 @@ fn copy_with_surface(
                 line.splice(start..start + digits, (n + shift).to_string().bytes());
             }
         }
-        if let Some((start, value)) = value_at(&line, b"Q203=") {
+        if let Some((start, value)) = value_at(&line, b"Q203") {
             let end = start + value.len();
             line.splice(start..end, number.bytes());
         }
