@@ -56,6 +56,17 @@ impl TncCycleMode {
             format!("this cycle call cannot be compensated: {why}"),
         )
     }
+
+    /// The hole's axis from its set-up clearance.
+    fn axis(&self, cx: &Cx<'_, '_>) -> HoleAxis<'_> {
+        HoleAxis {
+            top: &self.r_plane,
+            frame: self.frame.as_ref(),
+            col: Self::col(cx),
+            level: "set-up clearance",
+            instead: "program the hole as L moves",
+        }
+    }
 }
 
 impl Mode for TncCycleMode {
@@ -176,25 +187,13 @@ impl Mode for TncCycleMode {
             .fold(0, |m, v| m | 1 << v)
     }
 
-    /// One X, Y serves the whole depth: the tool at the set-up clearance, with the bottom's
-    /// X, Y, is still on the hole's axis.
+    /// The solution at the set-up clearance (where one X, Y serves the whole depth is
+    /// judged on the written words, in [`Mode::write`]).
     fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic> {
         let (pass, cx, state, _) = b.parts();
-        let depth = pass.one_xy_for_the_depth(
-            cx,
-            state,
-            &HoleAxis {
-                xy: [self.vars[0], self.vars[1]],
-                top: &self.r_plane,
-                frame: self.frame.as_ref(),
-                col: Self::col(cx),
-                level: "set-up clearance",
-                instead: "program the hole as L moves",
-            },
-            end,
-            hold,
-            |why| Self::refuse(cx, why),
-        )?;
+        let depth = pass.hole_top(cx, state, &self.axis(cx), end, hold, |why| {
+            Self::refuse(cx, why)
+        })?;
         (self.r_solution, self.bottom_words, self.r_words) = (Some(depth.0), depth.1, depth.2);
         Ok(())
     }
@@ -208,7 +207,7 @@ impl Mode for TncCycleMode {
         };
         let vz = self.vars[2];
         let zu = Unit::inch(state.modal.inch);
-        let [surface, bottom, _, _] = self.levels;
+        let [surface, bottom, clearance, _] = self.levels;
         let given_xy = self.vars[..2]
             .iter()
             .all(|&v| cx.motion.axis_words[v].is_some());
@@ -264,17 +263,39 @@ impl Mode for TncCycleMode {
             held = written;
         }
         // What the control is told: the hole's bottom as the written words and surface
-        // put it.
+        // put it, and the set-up clearance it feeds from (the Sinumerik cycle's safety
+        // distance above its reference plane likewise).
         let bottom_written = zu.to_mm(held) + (bottom - surface);
-        match self.frame {
+        let clearance_written = zu.to_mm(held) + (clearance - surface);
+        let length = state.modal.length;
+        let top_written = match self.frame {
             Some(frame) => {
                 let tip = Vector3::new(state.tip_written[0], state.tip_written[1], bottom_written);
-                if let Some(q) = pass.plane_axes(&frame, &tip, &state.emitted, state.modal.length) {
+                if let Some(q) = pass.plane_axes(&frame, &tip, &state.emitted, length) {
                     state.emitted = q;
                 }
+                let tip = Vector3::new(state.tip_written[0], state.tip_written[1], clearance_written);
+                pass.plane_axes(&frame, &tip, &state.emitted, length)
+                    .ok_or_else(|| {
+                        Self::refuse(
+                            cx,
+                            "the nominal machine cannot reach the set-up clearance above the corrected hole".into(),
+                        )
+                    })?
             }
-            None => state.emitted[vz] = bottom_written,
-        }
+            None => {
+                state.emitted[vz] = bottom_written;
+                let mut q = state.emitted;
+                q[vz] = clearance_written;
+                q
+            }
+        };
+        let Some(top) = self.r_solution.as_ref() else {
+            return Ok(());
+        };
+        pass.hole_axis_as_written(state, &self.axis(cx), (end, top), &top_written, |why| {
+            Self::refuse(cx, why)
+        })?;
         Ok(())
     }
 
