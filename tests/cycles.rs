@@ -440,8 +440,7 @@ fn tnc_holes(program: &str) -> Vec<[f64; 4]> {
                 .chars()
                 .filter(|c| !c.is_whitespace() && *c != '~')
                 .collect();
-            if let (Some(def), Some((name, value))) = (defining.as_mut(), compact.split_once('='))
-            {
+            if let (Some(def), Some((name, value))) = (defining.as_mut(), compact.split_once('=')) {
                 let k = match name {
                     "Q200" => 0,
                     "Q201" => 1,
@@ -504,8 +503,16 @@ fn tnc_holes_land(kin: &Kinematics, program: &str, written: &str) -> (usize, f64
     assert_eq!(nominal.len(), actual.len(), "{written}");
     let (mut bottom, mut clearance): (f64, f64) = (0.0, 0.0);
     for (n, a) in nominal.iter().zip(&actual) {
-        let meant = |k: usize| kin.pose(Model::Nominal, &[n[0], n[1], n[k], 0.0, 0.0], 0.0).0.p;
-        let reached = |k: usize| kin.pose(Model::Actual, &[a[0], a[1], a[k], 0.0, 0.0], 0.0).0.p;
+        let meant = |k: usize| {
+            kin.pose(Model::Nominal, &[n[0], n[1], n[k], 0.0, 0.0], 0.0)
+                .0
+                .p
+        };
+        let reached = |k: usize| {
+            kin.pose(Model::Actual, &[a[0], a[1], a[k], 0.0, 0.0], 0.0)
+                .0
+                .p
+        };
         bottom = bottom.max((reached(2) - meant(2)).norm());
         clearance = clearance.max(off_axis(reached(3), meant(2), meant(3)));
     }
@@ -545,8 +552,14 @@ fn tnc_cycle_spellings_the_control_accepts_are_read_alike() {
     for (params, dwell) in [
         (plain, "4 CYCL DEF 9.0 DWELL TIME\n4 CYCL DEF 9.1 DWELL 1.5"),
         (plain, "4 CYCL DEF9.0 VERWEILZEIT\n4 CYCL DEF9.1 V.ZEIT 0"),
-        (spaced, "4 CYCL DEF 9 .0 DWELL TIME\n4 CYCL DEF 9 .1 DWELL 2"),
-        (spaced, "4 CYCL DEF9 .0 VARAKOZASI IDO\n4 CYCL DEF9.1 V.IDO5"),
+        (
+            spaced,
+            "4 CYCL DEF 9 .0 DWELL TIME\n4 CYCL DEF 9 .1 DWELL 2",
+        ),
+        (
+            spaced,
+            "4 CYCL DEF9 .0 VARAKOZASI IDO\n4 CYCL DEF9.1 V.IDO5",
+        ),
     ] {
         let program = tnc_drilling(params, dwell);
         let out = run(&program).unwrap_or_else(|e| panic!("{program}\n{e}"));
@@ -554,11 +567,22 @@ fn tnc_cycle_spellings_the_control_accepts_are_read_alike() {
         // the depth and clearance its parameters give, spaced or not.
         let holes = tnc_holes(&program);
         assert_eq!(holes.len(), 3);
-        assert!(holes.iter().all(|h| h[2] == -13.5 && h[3] == 1.5), "{holes:?}");
+        assert!(
+            holes.iter().all(|h| h[2] == -13.5 && h[3] == 1.5),
+            "{holes:?}"
+        );
         let (n, bottom, clearance) = tnc_holes_land(&kin, &program, &out);
         assert_eq!(n, 3);
-        assert!(bottom < 2e-4, "a bottom is {:.3} µm off\n{out}", bottom * 1e3);
-        assert!(clearance < 1e-3, "{:.3} µm at the clearance", clearance * 1e3);
+        assert!(
+            bottom < 2e-4,
+            "a bottom is {:.3} µm off\n{out}",
+            bottom * 1e3
+        );
+        assert!(
+            clearance < 1e-3,
+            "{:.3} µm at the clearance",
+            clearance * 1e3
+        );
         // Uncompensated, the same holes are microns off: the check can fail.
         let (_, as_programmed, _) = tnc_holes_land(&kin, &program, &program);
         assert!(as_programmed > 5e-3, "{as_programmed}");
@@ -665,7 +689,13 @@ fn tnc_lean(kin: &Kinematics, [x, y, q203, q201, q200]: [f64; 5]) -> (f64, f64) 
     let real = |q: [f64; 5]| kin.pose(Model::Actual, &q, 0.0).0.p;
     let unrounded = off_axis(real([b[0], b[1], t[2], 0.0, 0.0]), bottom, top);
     let surface = round_to(q203 + (b[2] - (q203 + q201)), 4);
-    let written = [round_to(b[0], 4), round_to(b[1], 4), surface + q200, 0.0, 0.0];
+    let written = [
+        round_to(b[0], 4),
+        round_to(b[1], 4),
+        surface + q200,
+        0.0,
+        0.0,
+    ];
     (unrounded, off_axis(real(written), bottom, top))
 }
 
@@ -687,7 +717,11 @@ fn tnc_rows(holes: &[[f64; 2]]) -> String {
         p.push_str(&format!("{} L X{x:+.3} Y{y:+.3} R0 FMAX M99\n", k + 3));
     }
     let n = holes.len() + 3;
-    p.push_str(&format!("{n} L Z+100 R0 FMAX\n{} M30\n{} END PGM D MM\n", n + 1, n + 2));
+    p.push_str(&format!(
+        "{n} L Z+100 R0 FMAX\n{} M30\n{} END PGM D MM\n",
+        n + 1,
+        n + 2
+    ));
     p
 }
 
@@ -753,7 +787,10 @@ fn tnc_holes_are_judged_on_the_words_as_written() {
         .to_string();
     // At the call's M99, in the hole's line.
     let call = program.lines().nth(8).unwrap();
-    let at = format!("d.h:9:{}: this cycle call cannot be compensated", call.find("M99").unwrap() + 1);
+    let at = format!(
+        "d.h:9:{}: this cycle call cannot be compensated",
+        call.find("M99").unwrap() + 1
+    );
     assert!(err.contains(&at), "{err}");
     let figure: f64 = err
         .split("the tool is ")
@@ -767,7 +804,10 @@ fn tnc_holes_are_judged_on_the_words_as_written() {
         written * 1e3,
         unrounded * 1e3
     );
-    assert!(err.contains("at the set-up clearance (more than 1.11 µm"), "{err}");
+    assert!(
+        err.contains("at the set-up clearance (more than 1.11 µm"),
+        "{err}"
+    );
 }
 
 /// A three-axis mill programmed in inch (words to 0.0001 in, 2.54 µm): X, Y in the table,
@@ -848,7 +888,10 @@ fn a_refused_hole_leaves_its_levels_to_the_holes_after_it() {
     // Every hole is refused at its own line for what it is (the first at its G83, the
     // others at their first word), none for levels it does not repeat.
     let lines: Vec<&str> = err.lines().filter(|l| l.contains("cannot")).collect();
-    for (k, at) in ["6:5", "7:5", "8:5", "9:5", "10:5", "11:5"].iter().enumerate() {
+    for (k, at) in ["6:5", "7:5", "8:5", "9:5", "10:5", "11:5"]
+        .iter()
+        .enumerate()
+    {
         let line = lines.get(k).unwrap_or_else(|| panic!("{err}"));
         assert!(
             line.starts_with(&format!("o01001.nc:{at}: this canned cycle cannot be compensated: one X, Y cannot serve the whole depth here")),

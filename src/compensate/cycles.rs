@@ -5,8 +5,10 @@
 //! compensates the cycle at its positioning points: the hole's X, Y and bottom Z from the
 //! pose at the bottom, R from the pose at the R plane, the rotary axes held where they are
 //! (a cycle has no rotary words). That is honest only where one X, Y serves the whole
-//! depth: where the tool at the R plane, with the bottom's X, Y, would be further from the
-//! hole's axis than the path tolerance, the cycle is refused (program it as G0/G1 moves).
+//! depth: judged on the words as written, the tool at the R plane the control holds, with
+//! the bottom's written X, Y, must be on the hole's axis within the path tolerance plus
+//! what rounding the words to the machine's resolution can add (no word can do better: a
+//! 0.0001 in step is 2.54 µm); otherwise the cycle is refused (program it as G0/G1 moves).
 //!
 //! Under a tilted working plane (G68.2 after G53.1) the cycle drills along the plane's Z:
 //! X, Y, Z and R are the tip in the plane's frame, the controller turns them into axis
@@ -236,11 +238,13 @@ impl Pass<'_> {
         refuse: impl Fn(String) -> Diagnostic,
     ) -> Result<f64, Diagnostic> {
         let n = self.kin.len();
-        let (reached, _) = self.kin.pose(Model::Actual, &written[..n], state.modal.length);
+        let (reached, _) = self
+            .kin
+            .pose(Model::Actual, &written[..n], state.modal.length);
         let off = distance_from_axis(&reached.p, &end.target.p, &top.target.p);
         let tolerance = self.options.path.unwrap_or_default().position;
         let bound = tolerance + crate::verify::Tolerances::rounding(self.machine);
-        if !(off <= bound) {
+        if off.is_nan() || off > bound {
             return Err(refuse(format!(
                 "one X, Y cannot serve the whole depth here: with the bottom's correction, as the words are written, the tool is {:.2} µm off the hole's axis at the {} (more than {:.2} µm: the tolerance of {:.2} µm and what the words' rounding to the machine's resolution can add; {})",
                 off * 1e3,
@@ -258,7 +262,7 @@ impl Pass<'_> {
 fn distance_from_axis(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
     let d = b - a;
     let len = d.norm();
-    if !(len > 1e-9) {
+    if len.is_nan() || len <= 1e-9 {
         return (p - b).norm();
     }
     (p - b).cross(&(d / len)).norm()

@@ -11,7 +11,9 @@
 //! holes and may not be rewritten where it stands (the control has read it), so where a
 //! hole needs another surface coordinate than the one the control holds, a copy of the
 //! definition with that Q203 is inserted before the call. The same check as G81's holds:
-//! one X, Y must serve the whole depth within the path tolerance.
+//! one X, Y must serve the whole depth, judged on the written X, Y at the set-up clearance
+//! above the surface coordinate the control holds
+//! ([`super::Pass::hole_axis_as_written`]).
 
 use super::Pass;
 use super::cycles::HoleAxis;
@@ -274,7 +276,11 @@ impl Mode for TncCycleMode {
                 if let Some(q) = pass.plane_axes(&frame, &tip, &state.emitted, length) {
                     state.emitted = q;
                 }
-                let tip = Vector3::new(state.tip_written[0], state.tip_written[1], clearance_written);
+                let tip = Vector3::new(
+                    state.tip_written[0],
+                    state.tip_written[1],
+                    clearance_written,
+                );
                 pass.plane_axes(&frame, &tip, &state.emitted, length)
                     .ok_or_else(|| {
                         Self::refuse(

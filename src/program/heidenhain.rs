@@ -1403,7 +1403,15 @@ impl Reader<'_> {
             ));
         };
         match cycle {
-            7 => self.datum_shift(content, tokens, &sig[next.min(sig.len())..], sub, modal, tnc, at),
+            7 => self.datum_shift(
+                content,
+                tokens,
+                &sig[next.min(sig.len())..],
+                sub,
+                modal,
+                tnc,
+                at,
+            ),
             // The dwell time (9) acts where it is defined, and the control never calls it:
             // the drilling cycle defined before it stays the one M99 and CYCL CALL call.
             // Tolerance (32) and the dynamic tuning cycles (332, 392) move nothing and
