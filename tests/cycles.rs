@@ -626,6 +626,14 @@ fn tnc_cycle_definitions_the_control_refuses_are_refused_with_their_place() {
             "d.h:4:5: `Q200=` in a cycle definition: expected its value",
         ),
         (
+            tnc_drilling(params, "4 CYCL DEF"),
+            "d.h:9:8: expected a cycle number after CYCL DEF",
+        ),
+        (
+            tnc_drilling("    = 3 ;SET-UP CLEARANCE~\n    Q201=-12", ""),
+            "d.h:4:5: `=` in a cycle definition: expected a Q parameter such as Q200",
+        ),
+        (
             tnc_drilling("    Q200 3 ;SET-UP CLEARANCE~\n    Q201=-12", ""),
             "d.h:4:5: `Q200` in a cycle definition: expected a parameter such as Q200=2",
         ),

@@ -408,7 +408,10 @@ fn cycle_parameters<'a>(
         let Some((key, _)) = q_key(name.as_bytes()).filter(|(_, sign)| *sign == 1.0) else {
             return Err(at(
                 col,
-                format!("`{name}` in a cycle definition: expected a Q parameter such as Q200"),
+                format!(
+                    "`{}` in a cycle definition: expected a Q parameter such as Q200",
+                    if name.is_empty() { t } else { name }
+                ),
             ));
         };
         if value.is_empty() || value.contains('=') {
@@ -1394,12 +1397,18 @@ impl Reader<'_> {
         }
         let Some((cycle, sub, id, next)) = cycle_number(word) else {
             let (c, id) = match word(1) {
-                "DEF" => (col(2), word(2)),
+                "DEF" if sig.len() > 2 => (col(2), word(2)),
+                "DEF" => (col(1), ""),
                 w => (col(1) + 3, &w[3..]),
+            };
+            let what = if id.is_empty() {
+                String::new()
+            } else {
+                format!("`{id}`: ")
             };
             return Err(at(
                 c,
-                format!("`{id}`: expected a cycle number after CYCL DEF (such as 200 or 7.1)"),
+                format!("{what}expected a cycle number after CYCL DEF (such as 200 or 7.1)"),
             ));
         };
         match cycle {
