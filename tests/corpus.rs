@@ -231,6 +231,14 @@ fn the_heidenhain_cam_programs_compensate_with_consecutive_block_numbers() {
             "three_axis_tnc",
             0,
         ),
+        // `CYCL DEF9 .0` / `CYCL DEF9.1 V.IDO5` (a dwell, spelled without the space)
+        // between drilling calls.
+        (
+            "hm_dmc105v_W5246NS01007A1.h",
+            "dmc105v",
+            "three_axis_tnc",
+            0,
+        ),
         (
             "fusion_heidenhain_contour-final-outer.h",
             "fusion_tnc_mill",
