@@ -316,6 +316,7 @@ fn nccomp_verify_passes_on_every_compensated_cam_program() {
         ("hm_dmu100p_W5270NS01001B3.h", "dmu100p_bc", "bc_head_table"),
         ("hm_trimill_W5269NS01002A1.h", "trimill_bc", "bc_head_table"),
         ("hm_dmc105v_W5269NS01007B12.h", "dmc105v", "three_axis_tnc"),
+        ("hm_dmc105v_W5246NS01007A1.h", "dmc105v", "three_axis_tnc"),
         (
             "fusion_heidenhain_contour-final-outer.h",
             "fusion_tnc_mill",
