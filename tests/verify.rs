@@ -479,14 +479,20 @@ fn a_prediction_beyond_the_tolerance_is_refused_at_its_line() {
         ..Summary::default()
     };
     let refused = comp
-        .predicted_beyond(&summary(0.0238), "p.nc", src)
+        .predicted_beyond(
+            &summary(0.0238),
+            nccomp::verify::Text { name: "p.nc", src }.into(),
+        )
         .expect("23.8 µm predicted after compensation is refused");
     assert_eq!((refused.line, refused.column), (2, 1), "{refused:?}");
     assert!(refused.message.contains("0.0238 mm"), "{}", refused.message);
     // Within the tolerance (1 µm and the words' rounding) it passes.
     assert!(
-        comp.predicted_beyond(&summary(0.0009), "p.nc", src)
-            .is_none()
+        comp.predicted_beyond(
+            &summary(0.0009),
+            nccomp::verify::Text { name: "p.nc", src }.into()
+        )
+        .is_none()
     );
 }
 
@@ -526,4 +532,68 @@ fn a_move_from_a_rotary_travel_limit_is_judged_above_what_its_start_leaves() {
     );
     let check = nccomp(&["verify", "-m", m, "-e", e, s(&program), s(&broken)]);
     assert_eq!(check.status.code(), Some(1), "{}", stdout(&check));
+}
+
+/// `nccomp compensate` and `nccomp verify` stream both programs through the gate in
+/// chunks: a finding, or a block the reader refuses, far past the first chunk is located
+/// at its own line with its own text.
+#[test]
+fn findings_past_the_first_chunk_are_located_at_their_lines() {
+    let dir = scratch("verify-chunks");
+    let mut text = String::from("G21 G90 G17\nG0 X0 Y0 Z50. A0 C0\nG1 F1000\n");
+    for i in 0..30_000 {
+        let t = i as f64 * 0.01;
+        text.push_str(&format!(
+            "X{:.4} Y{:.4} Z{:.4}\n",
+            40.0 * t.sin(),
+            40.0 * t.cos(),
+            20.0 + 5.0 * (0.3 * t).sin()
+        ));
+    }
+    text.push_str("M30\n");
+    assert!(text.len() > 3 * 256 * 1024);
+    let program = write(&dir, "long.nc", &text);
+    let m = "fixtures/ac_trunnion.machine.toml";
+    let e = "fixtures/ac_trunnion.errors.toml";
+    let output = dir.join("long.comp.nc");
+    let out = nccomp(&[
+        "compensate",
+        "-m",
+        m,
+        "-e",
+        e,
+        s(&program),
+        "-o",
+        s(&output),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let written = std::fs::read_to_string(&output).unwrap();
+    let lines: Vec<&str> = written.lines().collect();
+    // A word moved 10 µm far down the written program.
+    let at = lines.len() - 1000;
+    let mut broken: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    let target = broken[at - 1].clone();
+    broken[at - 1] = nudge(&target, "Y", 'Y', 0.01).trim_end().to_string();
+    let path = write(&dir, "long.broken.nc", &(broken.join("\n") + "\n"));
+    let check = nccomp(&["verify", "-m", m, "-e", e, s(&program), s(&path)]);
+    let said = stdout(&check);
+    assert_eq!(check.status.code(), Some(1), "{said}");
+    assert!(said.contains(&format!("long.broken.nc:{at}:1")), "{said}");
+    assert!(
+        said.contains(&broken[at - 1]),
+        "the line's text is shown: {said}"
+    );
+    // A block the reader cannot read, far down: the written program cannot be read back
+    // there.
+    let mut unreadable: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    unreadable[at - 1] = format!("{} Q", unreadable[at - 1]);
+    let path = write(&dir, "long.unreadable.nc", &(unreadable.join("\n") + "\n"));
+    let check = nccomp(&["verify", "-m", m, "-e", e, s(&program), s(&path)]);
+    let said = stdout(&check);
+    assert_eq!(check.status.code(), Some(1), "{said}");
+    assert!(
+        said.contains(&format!("long.unreadable.nc:{at}:")),
+        "{said}"
+    );
+    assert!(said.contains("cannot be read back"), "{said}");
 }

@@ -453,7 +453,7 @@ fn copy_through(
 }
 
 /// Reads a stream in chunks cut after their last line ending.
-struct Chunks<R> {
+pub(crate) struct Chunks<R> {
     input: R,
     buf: Vec<u8>,
     /// Bytes of `buf` read and not yet handed out.
@@ -467,7 +467,7 @@ struct Chunks<R> {
 }
 
 impl<R: Read> Chunks<R> {
-    fn new(input: R) -> Self {
+    pub(crate) fn new(input: R) -> Self {
         Self::with_capacity(input, CHUNK)
     }
 
@@ -492,7 +492,7 @@ impl<R: Read> Chunks<R> {
     /// The next run of whole lines (the last one may lack its ending at the end of the
     /// input), with the number of lines before it and its offset in the stream; `None` at
     /// the end.
-    fn next(&mut self) -> std::io::Result<Option<(&[u8], usize, usize)>> {
+    pub(crate) fn next(&mut self) -> std::io::Result<Option<(&[u8], usize, usize)>> {
         self.buf.copy_within(self.taken..self.filled, 0);
         self.filled -= self.taken;
         self.offset += self.taken;
