@@ -3,7 +3,8 @@
 //! (docs/ci.md, "The documentation is tested"):
 //!
 //! - A command and its output are one ```` ```console ```` block: a line starting with
-//!   `$ ` is a command (continued on the next line while it ends with `\`), the lines
+//!   `$ ` is a command (continued on the next line while it ends with `\`, and through
+//!   the end of a here-document it opens, `<<'EOF'` … `EOF`), the lines
 //!   after it up to the next `$ ` are what it prints, standard output and standard error
 //!   together, in the order written. A command that prints nothing is followed directly
 //!   by the next command.
@@ -11,12 +12,13 @@
 //!   `[..]` for any text within a line (snapbox's wildcards, as trycmd uses them). Figures
 //!   that depend on the machine or on timing are elided or not shown as output at all.
 //! - The commands of a block run in order in one `sh`; the blocks of a page run in order,
-//!   in one scratch directory that links the repository's `fixtures/`, `tools/`, `docs/`
-//!   and `examples/` (and `../shared`), so paths are those of the repository root, a file
-//!   one block writes is there for the next, and files written are thrown away. `nccomp`
+//!   in one scratch directory that holds copies of the repository's `fixtures/`, `tools/`,
+//!   `docs/` and `examples/` (and `../shared` beside it), so paths are those of the
+//!   repository root, a file one block writes is there for the next, and files written
+//!   are thrown away. `nccomp`
 //!   (and `cargo run [--release] [-q] --`, and `target/release/nccomp`) is the binary this
 //!   test is built with. A command that exits non-zero must show an error (a line
-//!   containing `error`).
+//!   containing `error`), or be followed by `echo $?`, which shows its status.
 //! - A ```` ```sh ```` block directly followed by a ```` ```text ```` block, or a `text`
 //!   block that starts with `$ `, is refused: a shown output is a `console` block.
 //! - A block whose commands read `../shared/corpus` is reported as skipped where the
@@ -99,20 +101,40 @@ struct Shown {
     output: Vec<String>,
 }
 
+/// The end word of a here-document the command opens (`<<'EOF'`, `<<EOF`), if any.
+fn here_document(line: &str) -> Option<String> {
+    let (_, rest) = line.split_once("<<")?;
+    let word: String = rest
+        .trim_start_matches('-')
+        .trim_start()
+        .trim_matches(|c| c == '\'' || c == '"')
+        .chars()
+        .take_while(|c| c.is_alphanumeric() || *c == '_')
+        .collect();
+    (!word.is_empty()).then_some(word)
+}
+
 fn commands(block: &Block) -> Result<Vec<Shown>, String> {
     let mut out: Vec<Shown> = Vec::new();
     let mut continued = false;
+    let mut here: Option<String> = None;
     for (k, line) in block.body.iter().enumerate() {
         let at = block.open + k; // index from 0 of this line in the page
-        if continued {
+        if continued || here.is_some() {
             let cmd = out.last_mut().unwrap();
             cmd.command.push('\n');
             cmd.command.push_str(line);
-            continued = line.ends_with('\\');
+            if here.as_deref() == Some(line.trim()) {
+                here = None;
+            } else if here.is_none() {
+                continued = line.ends_with('\\');
+                here = here_document(line);
+            }
             cmd.first = at + 1;
             cmd.end = at + 1;
         } else if let Some(command) = line.strip_prefix("$ ") {
             continued = command.ends_with('\\');
+            here = here_document(command);
             out.push(Shown {
                 line: at + 1,
                 command: command.to_string(),
@@ -158,8 +180,8 @@ fn as_binary(command: &str) -> String {
     }
 }
 
-/// The scratch directory commands run in: `work/` (the current directory) links the
-/// repository's directories; `bin/nccomp` is the binary under test.
+/// The scratch directory commands run in: `work/` (the current directory) holds copies of
+/// the repository's directories; `bin/nccomp` is the binary under test.
 struct Scratch {
     dir: tempfile::TempDir,
 }
@@ -182,7 +204,7 @@ impl Scratch {
             std::fs::create_dir_all(d).unwrap();
         }
         for name in ["fixtures", "tools", "docs", "examples"] {
-            symlink(root().join(name), work.join(name)).unwrap();
+            copy_dir(&root().join(name), &work.join(name));
         }
         let exe = Path::new(env!("CARGO_BIN_EXE_nccomp"));
         for link in [
@@ -204,6 +226,20 @@ impl Scratch {
     }
 }
 
+/// A copy, so that what a command writes never reaches the repository.
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let target = to.join(entry.file_name());
+        if entry.file_type().unwrap().is_dir() {
+            copy_dir(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), target).unwrap();
+        }
+    }
+}
+
 const MARK: &str = "@@docs-test-command-end";
 
 /// Run the commands of one block in one `sh`; each command's output and exit status.
@@ -211,7 +247,12 @@ fn run(scratch: &Scratch, commands: &[Shown]) -> Result<(Vec<(String, i32)>, Dur
     let mut script = String::new();
     for (i, cmd) in commands.iter().enumerate() {
         writeln!(script, "{}", as_binary(&cmd.command)).unwrap();
-        writeln!(script, "printf '\\n{MARK} {i} %d\\n' \"$?\"").unwrap();
+        // The status is kept for the next command's `$?` (`echo $?` shows it).
+        writeln!(
+            script,
+            "status=$?; printf '\\n{MARK} {i} %d\\n' \"$status\"; (exit $status)"
+        )
+        .unwrap();
     }
     let log_path = scratch.dir.path().join("output");
     let _ = std::fs::remove_file(&log_path);
@@ -348,7 +389,7 @@ fn check_page(page: &str) {
                 block.open
             ));
         }
-        for (cmd, (actual, status)) in shown.iter().zip(&outputs) {
+        for (k, (cmd, (actual, status))) in shown.iter().zip(&outputs).enumerate() {
             ran += 1;
             let expected = tidy(&cmd.output.join("\n"));
             let actual = tidy(actual);
@@ -375,7 +416,8 @@ fn check_page(page: &str) {
                     replace.push((cmd.first, cmd.end, block.indent, lines));
                 }
             }
-            if *status != 0 && !expected.contains("error") {
+            let status_shown = shown.get(k + 1).is_some_and(|next| next.command == "echo $?");
+            if *status != 0 && !expected.contains("error") && !status_shown {
                 failures.push(format!(
                     "{name}: `{}` exits {status}, and the page shows no error",
                     cmd.command
@@ -477,6 +519,10 @@ fn a_console_block_is_split_into_commands_and_outputs() {
     assert_eq!((shown[0].first, shown[0].end), (4, 6));
     assert_eq!(shown[1].command, "c");
     assert!(shown[1].output.is_empty());
+    let here = "```console\n$ cat > p.nc <<'EOF'\nG0 X1\nEOF\n$ wc -l < p.nc\n1\n```\n";
+    let shown = commands(&blocks(here)[0]).unwrap();
+    assert_eq!(shown[0].command, "cat > p.nc <<'EOF'\nG0 X1\nEOF");
+    assert_eq!(shown[1].output, ["1"]);
     assert_eq!(
         as_binary("cargo run --release -q -- compensate -m m"),
         "nccomp compensate -m m"
