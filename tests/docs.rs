@@ -506,6 +506,121 @@ pages! {
     sinumerik: "docs/sinumerik.md",
 }
 
+// ------------------------------------------------------------------ links
+
+/// A heading's anchor as GitHub makes it: lower case, letters, digits, `-` and `_` kept,
+/// spaces to `-`, everything else dropped.
+fn slug(heading: &str) -> String {
+    heading
+        .trim()
+        .to_lowercase()
+        .chars()
+        .filter_map(|c| match c {
+            ' ' => Some('-'),
+            c if c.is_alphanumeric() || c == '-' || c == '_' => Some(c),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The anchors of a page: its headings' slugs (a repeated one numbered `-1`, `-2`, …)
+/// and its `<a id="…">` tags.
+fn anchors(text: &str) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    let mut fenced = false;
+    for line in text.lines() {
+        if line.trim_start().starts_with("```") {
+            fenced = !fenced;
+            continue;
+        }
+        if fenced {
+            continue;
+        }
+        if let Some(heading) = line.strip_prefix('#') {
+            let base = slug(heading.trim_start_matches('#'));
+            let mut anchor = base.clone();
+            let mut n = 0;
+            while out.contains(&anchor) {
+                n += 1;
+                anchor = format!("{base}-{n}");
+            }
+            out.push(anchor);
+        }
+        let mut rest = line;
+        while let Some(at) = rest.find("<a id=\"") {
+            rest = &rest[at + 7..];
+            if let Some(end) = rest.find('"') {
+                out.push(rest[..end].to_string());
+            }
+        }
+    }
+    out
+}
+
+/// Every relative link of README.md and docs/*.md names a file that is there and, with
+/// `#…`, an anchor of that page.
+#[test]
+fn links_between_the_pages_resolve() {
+    let mut pages = vec![root().join("README.md")];
+    for entry in std::fs::read_dir(root().join("docs")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "md") {
+            pages.push(path);
+        }
+    }
+    let mut broken = Vec::new();
+    for page in &pages {
+        let text = std::fs::read_to_string(page).unwrap();
+        let dir = page.parent().unwrap();
+        let mut fenced = false;
+        for (n, line) in text.lines().enumerate() {
+            if line.trim_start().starts_with("```") {
+                fenced = !fenced;
+            }
+            if fenced {
+                continue;
+            }
+            let mut rest = line;
+            while let Some(at) = rest.find("](") {
+                rest = &rest[at + 2..];
+                let Some(end) = rest.find(')') else { break };
+                let target = &rest[..end];
+                rest = &rest[end..];
+                if target.contains("://") || target.starts_with("mailto:") {
+                    continue;
+                }
+                let (file, anchor) = target.split_once('#').unwrap_or((target, ""));
+                let file = if file.is_empty() {
+                    page.clone()
+                } else {
+                    dir.join(file)
+                };
+                let name = page.strip_prefix(root()).unwrap_or(page);
+                let place = format!("{}:{}: `{target}`", name.display(), n + 1);
+                if !file.exists() {
+                    broken.push(format!("{place}: no such file"));
+                } else if !anchor.is_empty() {
+                    let linked = std::fs::read_to_string(&file).unwrap_or_default();
+                    if !anchors(&linked).iter().any(|a| a == anchor) {
+                        broken.push(format!("{place}: no such anchor"));
+                    }
+                }
+            }
+        }
+    }
+    assert!(broken.is_empty(), "broken links:\n{}", broken.join("\n"));
+}
+
+#[test]
+fn anchors_are_made_as_github_makes_them() {
+    assert_eq!(slug(" Splitting moves (`--tolerance`)"), "splitting-moves---tolerance");
+    assert_eq!(
+        slug(" Tool-centre-point programs (G43.4, G43.5)"),
+        "tool-centre-point-programs-g434-g435"
+    );
+    assert_eq!(anchors("# A\n## A\n<a id=\"x\"></a>"), ["a", "a-1", "x"]);
+}
+
 // ------------------------------------------------------------------ the harness itself
 
 #[test]
