@@ -416,7 +416,9 @@ fn check_page(page: &str) {
                     replace.push((cmd.first, cmd.end, block.indent, lines));
                 }
             }
-            let status_shown = shown.get(k + 1).is_some_and(|next| next.command == "echo $?");
+            let status_shown = shown
+                .get(k + 1)
+                .is_some_and(|next| next.command == "echo $?");
             if *status != 0 && !expected.contains("error") && !status_shown {
                 failures.push(format!(
                     "{name}: `{}` exits {status}, and the page shows no error",
@@ -613,7 +615,10 @@ fn links_between_the_pages_resolve() {
 
 #[test]
 fn anchors_are_made_as_github_makes_them() {
-    assert_eq!(slug(" Splitting moves (`--tolerance`)"), "splitting-moves---tolerance");
+    assert_eq!(
+        slug(" Splitting moves (`--tolerance`)"),
+        "splitting-moves---tolerance"
+    );
     assert_eq!(
         slug(" Tool-centre-point programs (G43.4, G43.5)"),
         "tool-centre-point-programs-g434-g435"
