@@ -15,10 +15,11 @@
 //!   in one scratch directory that holds copies of the repository's `fixtures/`, `tools/`,
 //!   `docs/` and `examples/` (and `../shared` beside it), so paths are those of the
 //!   repository root, a file one block writes is there for the next, and files written
-//!   are thrown away. `nccomp`
-//!   (and `cargo run [--release] [-q] --`, and `target/release/nccomp`) is the binary this
-//!   test is built with. A command that exits non-zero must show an error (a line
-//!   containing `error`), or be followed by `echo $?`, which shows its status.
+//!   are thrown away. `nccomp` (and `cargo run [--release] [-q] --`, and
+//!   `target/release/nccomp`) is the binary this test is built with. A command that exits
+//!   non-zero must show an error (a line containing `error`), or be followed by `echo $?`,
+//!   which shows its status.
+//! - Relative links between the pages, and their `#anchors`, must resolve.
 //! - A ```` ```sh ```` block directly followed by a ```` ```text ```` block, or a `text`
 //!   block that starts with `$ `, is refused: a shown output is a `console` block.
 //! - A block whose commands read `../shared/corpus` is reported as skipped where the
@@ -26,6 +27,7 @@
 //!
 //! `SNAPSHOTS=overwrite cargo test --test docs` writes the actual output of every failing
 //! command into its page (wildcards of a failing command are lost: put them back).
+#![cfg(unix)]
 
 #[path = "common/skip.rs"]
 mod skip;
