@@ -81,11 +81,9 @@ fn snapshot_840d_variables() {
 /// for it; the zero model gives it back byte for byte, and nccomp reads its output again.
 #[test]
 fn the_fusion_840d_program_compensates() {
-    let path = root().join("../shared/corpus/cam/fusion_840d_CAM_TEST.MPF");
-    if !path.is_file() {
-        eprintln!("note: {} is not there; test skipped", path.display());
+    let Some(path) = common::skip::corpus_path("cam/fusion_840d_CAM_TEST.MPF") else {
         return;
-    }
+    };
     let src = std::fs::read(&path).unwrap();
     assert_eq!(
         nccomp::nc::Dialect::detect(&src),
