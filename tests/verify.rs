@@ -597,3 +597,34 @@ fn findings_past_the_first_chunk_are_located_at_their_lines() {
     );
     assert!(said.contains("cannot be read back"), "{said}");
 }
+
+/// A move whose rotary axis turns past a full turn in one block passes the same pose twice:
+/// its pieces are matched to the place of the move their words give (the outside checker's
+/// held-out seeds, where the gate once refused right outputs).
+#[test]
+fn a_move_turning_past_a_full_turn_is_judged_piece_by_piece() {
+    let dir = scratch("verify-full-turn");
+    let program = write(
+        &dir,
+        "turn.nc",
+        "G21 G90 G17\nG0 X25.3819 Y83.4235 Z-7.4975 A-16.513 C268.503\nG1 F500\nC-157.4591\nX120.144 Y63.343 Z30.4176 A-13.404 C-144.965\nM30\n",
+    );
+    let m = "fixtures/checker_seed101.machine.toml";
+    let e = "fixtures/checker_seed101.errors.toml";
+    let output = dir.join("turn.comp.nc");
+    let out = nccomp(&[
+        "compensate",
+        "-m",
+        m,
+        "-e",
+        e,
+        s(&program),
+        "-o",
+        s(&output),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let written = std::fs::read_to_string(&output).unwrap();
+    assert!(written.lines().count() > 8, "the turn is split: {written}");
+    let check = nccomp(&["verify", "-m", m, "-e", e, s(&program), s(&output)]);
+    assert_eq!(check.status.code(), Some(0), "{}", stdout(&check));
+}

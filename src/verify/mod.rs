@@ -813,6 +813,16 @@ impl<'m> Gate<'m> {
     /// Whether written step `w` ends where original step `o` does (tip within the end
     /// tolerance, and the direction where it is judged).
     fn ends_together(&self, o: &Step, w: &Step) -> bool {
+        // A rotary axis a turn or more from the original's end gives the same pose at
+        // another place of the move (a piece of a move that turns past a full turn).
+        let kin = self.kin(o.chain, o.shift);
+        if w.chain == o.chain
+            && (0..kin.len()).any(|v| {
+                kin.kind(v) == AxisKind::Rotary && (w.mv.end[v] - o.mv.end[v]).abs() >= 180.0
+            })
+        {
+            return false;
+        }
         let (real, target) = self.end_poses(o, w);
         if (real.p - target.p).norm() > self.tolerances.end_position {
             return false;
@@ -1169,6 +1179,12 @@ impl<'m> Gate<'m> {
         let dist = |s: f64| (self.nominal_at(o, &o.mv.at(s, n)).p - real.p).norm();
         let near = projection(o, words, n).clamp(from, 1.0);
         let mut best = self.search(&dist, near, (near - 0.02).max(from), (near + 0.02).min(1.0));
+        // Where the words' own place on the move lands, it is the landing: a rotary axis
+        // turning past a full turn passes the same pose twice, and the other one is not
+        // where this piece is.
+        if best.position <= self.tolerances.end_position {
+            return best;
+        }
         let wide = self.search(&dist, from, from, 1.0);
         if wide.position < best.position {
             best = wide;
