@@ -299,9 +299,11 @@ impl Compensator<'_> {
             let mut pending: VecDeque<(usize, Vec<u8>, usize, usize)> = VecDeque::new();
             let mut next_index = 0;
             let mut reading = true;
-            // How long the pass took for its last chunk: the longest it waits for the
-            // helper's. A helper that cannot keep up (the other core busy) is left, and
-            // the pass goes on alone: two threads are never much slower than one.
+            // The longest the pass waits for the helper's reply: about what the chunk
+            // would take it alone (its first chunk, which it runs alone, or its last one,
+            // if longer). A helper that cannot reply in that time (the other core busy) is
+            // left, and the pass goes on alone: two threads are never much slower than one.
+            let mut alone = Duration::ZERO;
             let mut patience = Duration::ZERO;
             loop {
                 // Keep the helper up to two chunks ahead of the pass.
@@ -369,7 +371,11 @@ impl Compensator<'_> {
                 let started = Instant::now();
                 let spent = pass.ahead(ahead);
                 let go_on = pass.chunk(&bytes, before, offset, input_name, &mut out);
-                patience = started.elapsed().max(Duration::from_millis(1));
+                let took = started.elapsed();
+                if index == 0 {
+                    alone = took;
+                }
+                patience = took.max(alone).max(Duration::from_millis(2));
                 output.write_all(&out).map_err(|source| Error::Io {
                     path: output_name.to_string(),
                     source,
