@@ -92,11 +92,13 @@ fn bench(c: &mut Criterion) {
                     Text {
                         name: "bench.nc",
                         src: &src,
-                    },
+                    }
+                    .into(),
                     Text {
                         name: "out",
                         src: &out,
-                    },
+                    }
+                    .into(),
                     Dialect::Iso,
                 )
                 .unwrap();

@@ -8,12 +8,11 @@ use nccomp::model::{ErrorModel, Machine, error_file, machine_file};
 use nccomp::nc::{self, TokenKind};
 use std::path::{Path, PathBuf};
 
+#[path = "common/skip.rs"]
+mod skip;
+
 fn corpus_files() -> Option<Vec<PathBuf>> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus");
-    if !root.is_dir() {
-        eprintln!("note: {} is not there; corpus test skipped", root.display());
-        return None;
-    }
+    let root = skip::corpus()?;
     let mut files = Vec::new();
     let mut stack = vec![root];
     while let Some(dir) = stack.pop() {
@@ -122,11 +121,9 @@ fn lathe_programs_of_the_corpus_round_trip_and_are_compensated_or_refused_on_a_l
 /// comes back byte for byte.
 #[test]
 fn the_fanuc_family_cam_programs_compensate_or_are_refused_for_run_time_values_only() {
-    let cam = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus/cam");
-    if !cam.is_dir() {
-        eprintln!("note: {} is not there; test skipped", cam.display());
+    let Some(cam) = skip::corpus_path("cam") else {
         return;
-    }
+    };
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/corpus");
     // Each refusal says why its meaning is not in the program text.
     let run_time = [
@@ -205,11 +202,9 @@ fn block_numbers(src: &[u8]) -> Vec<u64> {
 
 #[test]
 fn the_heidenhain_cam_programs_compensate_with_consecutive_block_numbers() {
-    let cam = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus/cam");
-    if !cam.is_dir() {
-        eprintln!("note: {} is not there; test skipped", cam.display());
+    let Some(cam) = skip::corpus_path("cam") else {
         return;
-    }
+    };
     let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/corpus");
     for (program, machine, errors, planes) in [
         ("hm_dmu85_W5270NS01061A6.h", "dmu85_ac", "dmu85_ac", 1),
@@ -227,6 +222,14 @@ fn the_heidenhain_cam_programs_compensate_with_consecutive_block_numbers() {
         ),
         (
             "hm_dmc105v_W5269NS01007B12.h",
+            "dmc105v",
+            "three_axis_tnc",
+            0,
+        ),
+        // `CYCL DEF9 .0` / `CYCL DEF9.1 V.IDO5` (a dwell, spelled without the space)
+        // between drilling calls.
+        (
+            "hm_dmc105v_W5246NS01007A1.h",
             "dmc105v",
             "three_axis_tnc",
             0,
@@ -323,6 +326,7 @@ fn nccomp_verify_passes_on_every_compensated_cam_program() {
         ("hm_dmu100p_W5270NS01001B3.h", "dmu100p_bc", "bc_head_table"),
         ("hm_trimill_W5269NS01002A1.h", "trimill_bc", "bc_head_table"),
         ("hm_dmc105v_W5269NS01007B12.h", "dmc105v", "three_axis_tnc"),
+        ("hm_dmc105v_W5246NS01007A1.h", "dmc105v", "three_axis_tnc"),
         ("hm_dmu85_W5246NS01007B11.h", "dmu85_ac_b11", "dmu85_ac"),
         (
             "hm_trimill_W5269NS01002A16.h",

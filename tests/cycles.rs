@@ -414,3 +414,497 @@ fn fanuc_k_repeats_holes_as_haas_l_does() {
         assert!(err.contains(at), "{err}");
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// Heidenhain drilling cycles outside a plane (CYCL DEF 200 … called by M99).
+
+/// The holes a TNC program drills in machine axes, read as the control reads them (not by
+/// nccomp's reader): the drilling cycle defined last (`CYCL DEF 200` … `209`, however the
+/// spaces fall, with its `~` lines: Q200 the set-up clearance, Q201 the depth, Q203 the
+/// surface; `Q200=3`, `Q200=  3` and `Q200 = 3` alike) is called by `M99` at the X, Y of the
+/// `L` block that carries it. `CYCL DEF 9` (dwell time) acts where it stands: it is never
+/// called and leaves the called cycle as it was. Each hole: (x, y, bottom, set-up
+/// clearance), mm.
+fn tnc_holes(program: &str) -> Vec<[f64; 4]> {
+    let (mut x, mut y) = (f64::NAN, f64::NAN);
+    // Q200, Q201, Q203 of the cycle being defined and of the one in force.
+    let (mut defining, mut in_force): (Option<[f64; 3]>, Option<[f64; 3]>) = (None, None);
+    let mut continued = false;
+    let mut holes = Vec::new();
+    for line in program.lines() {
+        let body = line.split(';').next().unwrap();
+        let was_continued = continued;
+        continued = line.trim_end().ends_with('~');
+        if was_continued {
+            let compact: String = body
+                .chars()
+                .filter(|c| !c.is_whitespace() && *c != '~')
+                .collect();
+            if let (Some(def), Some((name, value))) = (defining.as_mut(), compact.split_once('=')) {
+                let k = match name {
+                    "Q200" => 0,
+                    "Q201" => 1,
+                    "Q203" => 2,
+                    _ => 3,
+                };
+                if k < 3 {
+                    def[k] = value.parse().unwrap();
+                }
+            }
+            if !continued && defining.is_some() {
+                in_force = defining.take();
+            }
+            continue;
+        }
+        let mut words = body.split_whitespace();
+        let _number = words.next();
+        let rest: Vec<&str> = words.collect();
+        match rest.first().copied() {
+            Some("CYCL") => {
+                let compact: String = rest[1..].concat();
+                let number: String = compact
+                    .strip_prefix("DEF")
+                    .expect("CYCL DEF")
+                    .chars()
+                    .take_while(char::is_ascii_digit)
+                    .collect();
+                match number.parse::<u32>().unwrap() {
+                    200..=209 => defining = Some([f64::NAN; 3]),
+                    9 => {}
+                    other => panic!("cycle {other} is not in these programs"),
+                }
+            }
+            Some("L") => {
+                for w in &rest[1..] {
+                    if let Some(v) = w.strip_prefix('X') {
+                        x = v.parse().unwrap();
+                    } else if let Some(v) = w.strip_prefix('Y') {
+                        y = v.parse().unwrap();
+                    }
+                }
+                if rest.contains(&"M99") {
+                    let [q200, q201, q203] = in_force.expect("a call of a defined cycle");
+                    holes.push([x, y, q203 + q201, q203 + q200]);
+                }
+            }
+            _ => {}
+        }
+    }
+    holes
+}
+
+/// How far each hole of `written` is from the same hole of `program` on the AC trunnion at
+/// A0 C0 (mm): the largest distance of the real tip from the programmed bottom, and of the
+/// real tip at the written set-up clearance from the programmed hole's axis (the line
+/// through its bottom and its clearance point; where the tool stands along it, in the air,
+/// is not judged).
+fn tnc_holes_land(kin: &Kinematics, program: &str, written: &str) -> (usize, f64, f64) {
+    let (nominal, actual) = (tnc_holes(program), tnc_holes(written));
+    assert_eq!(nominal.len(), actual.len(), "{written}");
+    let (mut bottom, mut clearance): (f64, f64) = (0.0, 0.0);
+    for (n, a) in nominal.iter().zip(&actual) {
+        let meant = |k: usize| {
+            kin.pose(Model::Nominal, &[n[0], n[1], n[k], 0.0, 0.0], 0.0)
+                .0
+                .p
+        };
+        let reached = |k: usize| {
+            kin.pose(Model::Actual, &[a[0], a[1], a[k], 0.0, 0.0], 0.0)
+                .0
+                .p
+        };
+        bottom = bottom.max((reached(2) - meant(2)).norm());
+        clearance = clearance.max(off_axis(reached(3), meant(2), meant(3)));
+    }
+    (nominal.len(), bottom, clearance)
+}
+
+/// The distance of `p` from the line through `a` and `b`.
+fn off_axis(p: Vector3<f64>, a: Vector3<f64>, b: Vector3<f64>) -> f64 {
+    let d = (b - a).normalize();
+    let v = p - a;
+    (v - d * v.dot(&d)).norm()
+}
+
+/// A TNC drilling program on the AC trunnion at A0 C0, its definition's lines `params`.
+fn tnc_drilling(params: &str, between: &str) -> String {
+    format!(
+        "0 BEGIN PGM D MM\n1 L X+0 Y+0 Z+50 A+0 C+0 R0 FMAX\n2 CYCL DEF 200 DRILLING~\n{params}\n\
+         3 L X+10 Y+20 R0 FMAX M99\n{between}\n5 L X+40 Y-15 R0 FMAX M99\n\
+         6 L X-60 Y+35 R0 FMAX M99\n7 L Z+100 R0 FMAX\n8 M30\n9 END PGM D MM\n"
+    )
+}
+
+#[test]
+fn tnc_cycle_spellings_the_control_accepts_are_read_alike() {
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = shop_errors(&machine, &mut Lcg(41));
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let run = |program: &str| {
+        let mut out = Vec::new();
+        comp.run(program.as_bytes(), "d.h", &mut out)
+            .map(|_| String::from_utf8(out).unwrap())
+    };
+    let plain = "    Q200=3 ;SET-UP CLEARANCE~\n    Q201=-12 ;DEPTH~\n    Q206=150 ;FEED RATE FOR PLUNGING~\n    Q203=-1.5 ;SURFACE COORDINATE~\n    Q204=30 ;2ND SET-UP CLEARANCE";
+    let spaced = "    Q200=  3 ;SET-UP CLEARANCE~\n    Q201 = -12 ;DEPTH~\n    Q206=  150 ;FEED RATE FOR PLUNGING~\n    Q203=   -1.5 ;SURFACE COORDINATE~\n    Q204 =30 ;2ND SET-UP CLEARANCE";
+    let mut written = Vec::new();
+    for (params, dwell) in [
+        (plain, "4 CYCL DEF 9.0 DWELL TIME\n4 CYCL DEF 9.1 DWELL 1.5"),
+        (plain, "4 CYCL DEF9.0 VERWEILZEIT\n4 CYCL DEF9.1 V.ZEIT 0"),
+        (
+            spaced,
+            "4 CYCL DEF 9 .0 DWELL TIME\n4 CYCL DEF 9 .1 DWELL 2",
+        ),
+        (
+            spaced,
+            "4 CYCL DEF9 .0 VARAKOZASI IDO\n4 CYCL DEF9.1 V.IDO5",
+        ),
+    ] {
+        let program = tnc_drilling(params, dwell);
+        let out = run(&program).unwrap_or_else(|e| panic!("{program}\n{e}"));
+        // Every hole drills with cycle 200 (the dwell between calls replaces nothing), at
+        // the depth and clearance its parameters give, spaced or not.
+        let holes = tnc_holes(&program);
+        assert_eq!(holes.len(), 3);
+        assert!(
+            holes.iter().all(|h| h[2] == -13.5 && h[3] == 1.5),
+            "{holes:?}"
+        );
+        let (n, bottom, clearance) = tnc_holes_land(&kin, &program, &out);
+        assert_eq!(n, 3);
+        assert!(
+            bottom < 2e-4,
+            "a bottom is {:.3} µm off\n{out}",
+            bottom * 1e3
+        );
+        assert!(
+            clearance < 1e-3,
+            "{:.3} µm at the clearance",
+            clearance * 1e3
+        );
+        // Uncompensated, the same holes are microns off: the check can fail.
+        let (_, as_programmed, _) = tnc_holes_land(&kin, &program, &program);
+        assert!(as_programmed > 5e-3, "{as_programmed}");
+        written.push(out);
+    }
+    // The dwell's spelling changes nothing that is written.
+    let strip = |s: &str| {
+        s.lines()
+            .filter(|l| !l.contains("CYCL DEF 9") && !l.contains("CYCL DEF9"))
+            .map(|l| l.replace(' ', ""))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(strip(&written[0]), strip(&written[1]));
+    assert_eq!(strip(&written[2]), strip(&written[3]));
+    // A copy of the definition with another Q203 keeps the spacing it does not change.
+    assert!(written[2].contains("Q200=  3 ;SET-UP"), "{}", written[2]);
+}
+
+#[test]
+fn tnc_cycle_definitions_the_control_refuses_are_refused_with_their_place() {
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = shop_errors(&machine, &mut Lcg(41));
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let params = "    Q200=3 ;SET-UP CLEARANCE~\n    Q201=-12 ;DEPTH~\n    Q203=-1.5 ;SURFACE COORDINATE~\n    Q204=30 ;2ND SET-UP CLEARANCE";
+    for (program, at) in [
+        (
+            tnc_drilling(params, "4 CYCL DEFX.0 DWELL"),
+            "d.h:9:11: `X.0`: expected a cycle number after CYCL DEF",
+        ),
+        (
+            tnc_drilling(params, "4 CYCL DEF 9 0 DWELL"),
+            // `9 0`: the sub-block must follow the dot (the control's `9.0` or `9 .0`):
+            // read as cycle 9, whose other tokens are not read.
+            "",
+        ),
+        (
+            tnc_drilling(
+                "    Q200= ;SET-UP CLEARANCE~\n    Q201=-12 ;DEPTH~\n    Q203=-1.5",
+                "",
+            ),
+            "d.h:4:5: `Q200=` in a cycle definition: expected its value",
+        ),
+        (
+            tnc_drilling(params, "4 CYCL DEF"),
+            "d.h:9:8: expected a cycle number after CYCL DEF",
+        ),
+        (
+            tnc_drilling("    = 3 ;SET-UP CLEARANCE~\n    Q201=-12", ""),
+            "d.h:4:5: `=` in a cycle definition: expected a Q parameter such as Q200",
+        ),
+        (
+            tnc_drilling("    Q200 3 ;SET-UP CLEARANCE~\n    Q201=-12", ""),
+            "d.h:4:5: `Q200` in a cycle definition: expected a parameter such as Q200=2",
+        ),
+        (
+            tnc_drilling("    Q200=Q7 ;SET-UP CLEARANCE~\n    Q201=-12 ;DEPTH~\n    Q203=-1.5", ""),
+            "d.h:7:23: the call of cycle 200 (defined at line 3) cannot be compensated: Q200 is given by Q7, which the program never sets",
+        ),
+        (
+            "0 BEGIN PGM D MM\n1 L X+0 Y+0 Z+50 A+0 C+0 R0 FMAX\n2 CYCL DEF 9.0 DWELL TIME\n3 CYCL DEF 9.1 DWELL 1\n4 L X+10 Y+20 R0 FMAX M99\n5 END PGM D MM\n".to_string(),
+            "d.h:5:23: a cycle call, but no cycle is defined",
+        ),
+    ] {
+        let result = comp.run(program.as_bytes(), "d.h", &mut Vec::new());
+        if at.is_empty() {
+            assert!(result.is_ok(), "{program}: {result:?}");
+            continue;
+        }
+        let err = result.unwrap_err().to_string();
+        assert!(err.contains(at), "{program}\n{err}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// One X, Y serves the whole depth: judged on the words as written, to the floor of what
+// they can say.
+
+/// The axis values X, Y, Z (the others as given) that put the real tip where the nominal
+/// machine puts it at `q`: the test's own fixed-point solve (each linear axis moves the tip
+/// along its own direction within microradians, so the step converges).
+fn solve_xyz(kin: &Kinematics, q: &[f64]) -> Vec<f64> {
+    let target = kin.pose(Model::Nominal, q, 0.0).0.p;
+    let mut s = q.to_vec();
+    for _ in 0..100 {
+        let d = target - kin.pose(Model::Actual, &s, 0.0).0.p;
+        for k in 0..3 {
+            s[k] += d[k];
+        }
+        if d.norm() < 1e-13 {
+            break;
+        }
+    }
+    s
+}
+
+/// A number rounded to `d` decimals.
+fn round_to(x: f64, d: i32) -> f64 {
+    let s = 10f64.powi(d);
+    (x * s).round() / s
+}
+
+/// The lateral distance (mm) of the real tool from the nominal axis of a TNC hole on the AC
+/// trunnion at A0 C0 (X, Y, surface Q203, depth Q201, set-up clearance Q200, in mm), at
+/// its set-up clearance, with the bottom's correction: unrounded (the solve's values), and
+/// as the words are written (X, Y and the copied Q203 to four decimals).
+fn tnc_lean(kin: &Kinematics, [x, y, q203, q201, q200]: [f64; 5]) -> (f64, f64) {
+    let at = |z: f64| [x, y, z, 0.0, 0.0];
+    let nominal = |z: f64| kin.pose(Model::Nominal, &at(z), 0.0).0.p;
+    let (bottom, top) = (nominal(q203 + q201), nominal(q203 + q200));
+    let b = solve_xyz(kin, &at(q203 + q201));
+    let t = solve_xyz(kin, &at(q203 + q200));
+    let real = |q: [f64; 5]| kin.pose(Model::Actual, &q, 0.0).0.p;
+    let unrounded = off_axis(real([b[0], b[1], t[2], 0.0, 0.0]), bottom, top);
+    let surface = round_to(q203 + (b[2] - (q203 + q201)), 4);
+    let written = [
+        round_to(b[0], 4),
+        round_to(b[1], 4),
+        surface + q200,
+        0.0,
+        0.0,
+    ];
+    (unrounded, off_axis(real(written), bottom, top))
+}
+
+/// Shop errors with the Z axis leaning `lean` rad about Y (EB0Z): the tool at the hole's
+/// top stands off the axis through its corrected bottom by `lean` × the depth.
+fn leaning_errors(machine: &Machine, seed: u64, lean: f64) -> ErrorModel {
+    let mut errors = shop_errors(machine, &mut Lcg(seed));
+    errors.axes[2].squareness = Vector3::new(0.0, lean, 0.0);
+    errors
+}
+
+/// A TNC program drilling cycle 200 (Q200=2, Q201=-8.5, Q203=0: 10.5 mm from the bottom to
+/// the set-up clearance) at each of `holes`.
+fn tnc_rows(holes: &[[f64; 2]]) -> String {
+    let mut p = String::from(
+        "0 BEGIN PGM D MM\n1 L X+0 Y+0 Z+50 A+0 C+0 R0 FMAX\n2 CYCL DEF 200 DRILLING~\n    Q200=2 ;SET-UP CLEARANCE~\n    Q201=-8.5 ;DEPTH~\n    Q206=150 ;FEED RATE FOR PLUNGING~\n    Q203=+0 ;SURFACE COORDINATE~\n    Q204=30 ;2ND SET-UP CLEARANCE\n",
+    );
+    for (k, [x, y]) in holes.iter().enumerate() {
+        p.push_str(&format!("{} L X{x:+.3} Y{y:+.3} R0 FMAX M99\n", k + 3));
+    }
+    let n = holes.len() + 3;
+    p.push_str(&format!(
+        "{n} L Z+100 R0 FMAX\n{} M30\n{} END PGM D MM\n",
+        n + 1,
+        n + 2
+    ));
+    p
+}
+
+/// The tolerance a hole's axis is held to at its top (mm): the path tolerance and what the
+/// words' rounding to the resolution `res` can add, (√3/2 + 1/4)·res, as the gate holds
+/// block ends.
+fn axis_bound(res: f64) -> f64 {
+    0.001 + (0.75_f64.sqrt() + 0.25) * res
+}
+
+#[test]
+fn tnc_holes_are_judged_on_the_words_as_written() {
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let mut rng = Lcg(43);
+    // As the program gives them, to three decimals.
+    let holes: Vec<[f64; 2]> = (0..12)
+        .map(|_| [round_to(rng.sym(150.0), 3), round_to(rng.sym(150.0), 3)])
+        .collect();
+    // A lean of 97 µrad over 10.5 mm: each hole's axis at the set-up clearance is
+    // 1.02 µm off before its words are rounded, beyond the 1 µm tolerance, within what the
+    // words can say (0.1 µm steps: 1.112 µm). A check of the values before rounding refuses
+    // every hole; the written words are within the bound.
+    let errors = leaning_errors(&machine, 47, 97e-6);
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let program = tnc_rows(&holes);
+    let mut out = Vec::new();
+    comp.run(program.as_bytes(), "d.h", &mut out)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let written = String::from_utf8(out).unwrap();
+    let (n, bottom, clearance) = tnc_holes_land(&kin, &program, &written);
+    assert_eq!(n, holes.len());
+    assert!(bottom < 2e-4, "a bottom is {:.3} µm off", bottom * 1e3);
+    let bound = axis_bound(1e-4);
+    assert!(
+        clearance <= bound,
+        "{:.4} µm at the set-up clearance (bound {:.4} µm)",
+        clearance * 1e3,
+        bound * 1e3
+    );
+    for &[x, y] in &holes {
+        let (unrounded, _) = tnc_lean(&kin, [x, y, 0.0, -8.5, 2.0]);
+        assert!(unrounded > 1e-3 && unrounded < 1.05e-3, "{unrounded}");
+    }
+
+    // Leaning 120 µrad (1.26 µm before rounding) every hole is beyond what the words can
+    // say, and the refusal names the figure of the words as they would be written: the
+    // test's own solve, rounded, evaluated on the real machine. The hole is one whose
+    // rounding moves the figure by more than the message's last digit.
+    let errors = leaning_errors(&machine, 47, 120e-6);
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let (hole, (unrounded, written)) = holes
+        .iter()
+        .map(|&[x, y]| ([x, y], tnc_lean(&kin, [x, y, 0.0, -8.5, 2.0])))
+        .find(|(_, (u, w))| (u - w).abs() > 2e-5)
+        .expect("a hole whose rounding shows");
+    assert!(written > bound, "{written}");
+    let program = tnc_rows(&[hole]);
+    let err = comp
+        .run(program.as_bytes(), "d.h", &mut Vec::new())
+        .unwrap_err()
+        .to_string();
+    // At the call's M99, in the hole's line.
+    let call = program.lines().nth(8).unwrap();
+    let at = format!(
+        "d.h:9:{}: this cycle call cannot be compensated",
+        call.find("M99").unwrap() + 1
+    );
+    assert!(err.contains(&at), "{err}");
+    let figure: f64 = err
+        .split("the tool is ")
+        .nth(1)
+        .and_then(|s| s.split(" µm").next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{err}"));
+    assert!(
+        (figure - written * 1e3).abs() <= 0.0051,
+        "the refusal says {figure} µm; the written words leave {:.4} µm (before rounding {:.4} µm)\n{err}",
+        written * 1e3,
+        unrounded * 1e3
+    );
+    assert!(
+        err.contains("at the set-up clearance (more than 1.11 µm"),
+        "{err}"
+    );
+}
+
+/// A three-axis mill programmed in inch (words to 0.0001 in, 2.54 µm): X, Y in the table,
+/// Z in the head.
+fn inch_mill() -> Machine {
+    let mut machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    machine.axes.truncate(3);
+    machine.workpiece_chain = vec![1, 0];
+    machine.resolution.linear = 0.00254;
+    machine.inch_default = true;
+    machine
+}
+
+/// A Haas-style drilling program in inch: peck drilling (G83) with an R plane 0.1 in above
+/// the part, to 0.9 in deep (1 in, 25.4 mm, from R to the bottom), a row of holes given by
+/// X and Y alone.
+const HAAS_DRILLING: &str = "%\nO01001 (PLATE HOLES)\nN5 G20 G00 G17 G40 G49 G80 G90 G98\nN10 G00 X0.56 Y-0.425\nN15 Z1. M08\nN20 G83 Z-0.9 R0.1 Q0.1875 F10.\nN25 X1.04\nN30 X1.52\nN35 Y-0.875\nN40 X1.04\nN45 X0.56\nN50 G80\nN55 G00 Z1. M09\nN60 M30\n%\n";
+
+#[test]
+fn haas_inch_holes_are_held_to_what_their_words_can_say() {
+    let machine = inch_mill();
+    // A lean of 41.7 µrad: the axis at the R plane is 1.06 µm off with the bottom's
+    // correction, beyond the 1 µm tolerance, well within a word's step (2.54 µm).
+    let mut errors = shop_errors(&machine, &mut Lcg(53));
+    errors.axes[2].squareness = Vector3::new(0.0, 41.7e-6, 0.0);
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let mut out = Vec::new();
+    let summary = comp
+        .run(HAAS_DRILLING.as_bytes(), "o01001.nc", &mut out)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let written = String::from_utf8(out).unwrap();
+    assert!(summary.words_changed > 0, "{written}");
+    // Every hole, read as a Haas reads the words: its bottom and its axis at the R plane.
+    let mm = |h: &[f64; 4]| h.map(|v| v * 25.4);
+    let (nominal, actual) = (holes_of(HAAS_DRILLING), holes_of(&written));
+    assert_eq!(nominal.len(), 6);
+    assert_eq!(nominal.len(), actual.len(), "{written}");
+    let (mut bottom, mut axis, mut lean): (f64, f64, f64) = (0.0, 0.0, 0.0);
+    for (n, a) in nominal.iter().zip(&actual) {
+        let (n, a) = (mm(n), mm(a));
+        let meant = |z: f64| kin.pose(Model::Nominal, &[n[0], n[1], z], 0.0).0.p;
+        let real = |z: f64| kin.pose(Model::Actual, &[a[0], a[1], z], 0.0).0.p;
+        bottom = bottom.max((real(a[2]) - meant(n[2])).norm());
+        axis = axis.max(off_axis(real(a[3]), meant(n[2]), meant(n[3])));
+        // Before rounding: the bottom's solved X, Y at the R plane's solved Z.
+        let b = solve_xyz(&kin, &[n[0], n[1], n[2]]);
+        let t = solve_xyz(&kin, &[n[0], n[1], n[3]]);
+        let p = kin.pose(Model::Actual, &[b[0], b[1], t[2]], 0.0).0.p;
+        lean = lean.max(off_axis(p, meant(n[2]), meant(n[3])));
+    }
+    // The words say the bottom to their rounding: half a step on each of three axes.
+    assert!(
+        bottom <= 0.75_f64.sqrt() * 0.00254 + 1e-5,
+        "a bottom is {:.3} µm off",
+        bottom * 1e3
+    );
+    assert!(
+        axis <= axis_bound(0.00254),
+        "the axis at the R plane is {:.3} µm off",
+        axis * 1e3
+    );
+    // The lean alone is beyond the tolerance: a bound without the floor refuses these.
+    assert!(lean > 1.05e-3 && lean < 1.07e-3, "{lean}");
+}
+
+#[test]
+fn a_refused_hole_leaves_its_levels_to_the_holes_after_it() {
+    let machine = inch_mill();
+    // A lean of 300 µrad: 7.6 µm off at the R plane, more than the words' floor allows.
+    let mut errors = shop_errors(&machine, &mut Lcg(53));
+    errors.axes[2].squareness = Vector3::new(0.0, 300e-6, 0.0);
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let err = comp
+        .run(HAAS_DRILLING.as_bytes(), "o01001.nc", &mut Vec::new())
+        .unwrap_err()
+        .to_string();
+    // Every hole is refused at its own line for what it is (the first at its G83, the
+    // others at their first word), none for levels it does not repeat.
+    let lines: Vec<&str> = err.lines().filter(|l| l.contains("cannot")).collect();
+    for (k, at) in ["6:5", "7:5", "8:5", "9:5", "10:5", "11:5"]
+        .iter()
+        .enumerate()
+    {
+        let line = lines.get(k).unwrap_or_else(|| panic!("{err}"));
+        assert!(
+            line.starts_with(&format!("o01001.nc:{at}: this canned cycle cannot be compensated: one X, Y cannot serve the whole depth here")),
+            "{line}\n{err}"
+        );
+    }
+    assert!(!err.contains("needs its bottom"), "{err}");
+}

@@ -1033,11 +1033,9 @@ const FIXTURES: &[&str] = &[
 
 /// The ISO programs of ../shared/corpus (none when it is not there).
 fn corpus() -> Vec<String> {
-    let dir = root().join("../shared/corpus");
-    if !dir.is_dir() {
-        eprintln!("note: {} is not there: no corpus seeds", dir.display());
+    let Some(dir) = common::skip::corpus_part("") else {
         return Vec::new();
-    }
+    };
     let mut files = Vec::new();
     let mut stack = vec![dir];
     while let Some(d) = stack.pop() {

@@ -6,6 +6,9 @@ use std::path::{Path, PathBuf};
 use nccomp::nc::{Line, Token, TokenKind, Value, Word, lines, parse_line};
 use proptest::prelude::*;
 
+#[path = "common/skip.rs"]
+mod skip;
+
 /// Split and tokenize `src`, check that the tokens of each line are contiguous and cover
 /// it, that line numbers and offsets are consistent, and emit everything back.
 fn reconstruct(src: &[u8]) -> Vec<u8> {
@@ -508,11 +511,9 @@ fn walk(dir: &Path, files: &mut Vec<PathBuf>) {
 
 #[test]
 fn corpus_round_trip() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus");
-    if !dir.is_dir() {
-        println!("note: {} not found, corpus test skipped", dir.display());
+    let Some(dir) = skip::corpus() else {
         return;
-    }
+    };
     let mut files = Vec::new();
     walk(&dir, &mut files);
     files.sort();

@@ -5,10 +5,13 @@
 //! generates random AC trunnion machines, error files and five-axis programs, runs this
 //! crate's `nccomp compensate` on them and evaluates every programmed pose of the result
 //! with its own model: a misreading of the contract on either side shows up as a
-//! residual. Skipped (with a note) where no Python 3.11+ is available.
+//! residual. Reported as skipped (common/skip.rs) where no Python 3.11+ is available.
 
 use std::path::Path;
 use std::process::Command;
+
+#[path = "common/skip.rs"]
+mod skip;
 
 /// Seeds and program length: the random programs turn their rotary axes by up to hundreds
 /// of degrees per block, so the default path tolerance inserts thousands of blocks; four
@@ -28,7 +31,10 @@ fn python() -> Option<&'static str> {
 
 fn roundtrip(extra: &[&str]) {
     let Some(python) = python() else {
-        eprintln!("note: python3 (3.11 or newer) not found: outside checker test skipped");
+        skip::skip(
+            "python3 (3.11 or newer, with tomllib) is not there",
+            "install Python 3.11 or newer to run the outside checker",
+        );
         return;
     };
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));

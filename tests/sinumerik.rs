@@ -81,11 +81,9 @@ fn snapshot_840d_variables() {
 /// for it; the zero model gives it back byte for byte, and nccomp reads its output again.
 #[test]
 fn the_fusion_840d_program_compensates() {
-    let path = root().join("../shared/corpus/cam/fusion_840d_CAM_TEST.MPF");
-    if !path.is_file() {
-        eprintln!("note: {} is not there; test skipped", path.display());
+    let Some(path) = common::skip::corpus_path("cam/fusion_840d_CAM_TEST.MPF") else {
         return;
-    }
+    };
     let src = std::fs::read(&path).unwrap();
     assert_eq!(
         nccomp::nc::Dialect::detect(&src),
@@ -222,6 +220,7 @@ fn what_is_not_followed_is_refused_with_its_place_and_reason() {
         ("N50 $P_UIFR[1]=CTRANS(X,10)", 5, "system variables"),
         ("N50 G500", 5, "G500"),
         ("N50 TRANS X10 G1", 15, "expected X, Y, Z only"),
+        ("N50 TRANS X99999999 Y5", 11, "X in TRANS is out of range"),
         ("N50 WAITM(1)", 5, "not a Sinumerik instruction"),
         ("N50 G1 X=IC(5)", 8, "other distance mode"),
     ] {

@@ -214,7 +214,12 @@ fn verify_passes_on_outputs_and_finds_a_hand_broken_word_in_each_dialect() {
         ("ac_trunnion", "fixtures/tnc_ac_trunnion.h", " FQ1", 'Y'),
         ("ac_trunnion", "fixtures/ac_trunnion_plane.nc", "G1 ", 'X'),
         // A piece of an arc in a tilted plane, moved off the arc (radially).
-        ("ac_trunnion", "fixtures/ac_trunnion_plane.nc", "N120 G1", 'X'),
+        (
+            "ac_trunnion",
+            "fixtures/ac_trunnion_plane.nc",
+            "N120 G1",
+            'X',
+        ),
         // Arcs in tilted planes in each dialect: a kept arc's centre moved (its end
         // kept), a kept TNC arc's end, a piece of a helix replaced by pieces (moved
         // across the helix: along it a piece's end is still on the path).
@@ -435,7 +440,7 @@ fn report_prints_the_summary_compensate_prints() {
     ];
     // The Fusion 840D corpus program, where the corpus is beside the project.
     let fusion = "../shared/corpus/cam/fusion_840d_CAM_TEST.MPF";
-    if Path::new(env!("CARGO_MANIFEST_DIR")).join(fusion).exists() {
+    if common::skip::corpus_part("cam/fusion_840d_CAM_TEST.MPF").is_some() {
         cases.push((
             "fixtures/corpus/fusion_840d_ac",
             "fixtures/corpus/dmu85_ac",
@@ -492,13 +497,152 @@ fn a_prediction_beyond_the_tolerance_is_refused_at_its_line() {
         ..Summary::default()
     };
     let refused = comp
-        .predicted_beyond(&summary(0.0238), "p.nc", src)
+        .predicted_beyond(
+            &summary(0.0238),
+            nccomp::verify::Text { name: "p.nc", src }.into(),
+        )
         .expect("23.8 µm predicted after compensation is refused");
     assert_eq!((refused.line, refused.column), (2, 1), "{refused:?}");
     assert!(refused.message.contains("0.0238 mm"), "{}", refused.message);
     // Within the tolerance (1 µm and the words' rounding) it passes.
     assert!(
-        comp.predicted_beyond(&summary(0.0009), "p.nc", src)
-            .is_none()
+        comp.predicted_beyond(
+            &summary(0.0009),
+            nccomp::verify::Text { name: "p.nc", src }.into()
+        )
+        .is_none()
     );
+}
+
+/// A move that leaves a rotary travel limit starts with the direction error the held axis
+/// leaves there (reported, not correctable); between its ends the tool may turn the
+/// tolerance beyond what its ends leave, as its position may: not a finding.
+#[test]
+fn a_move_from_a_rotary_travel_limit_is_judged_above_what_its_start_leaves() {
+    let dir = scratch("verify-limit");
+    let program = write(
+        &dir,
+        "limit.nc",
+        "G21 G90 G17\nG0 X-26.1651 Y-129.4646 Z-45.2374 A30. C97.0494\nG1 F1000\nX-25.7053 Y-129.6485 Z-45.8778 A30.0000 C96.7823\nX-27.5722 Y-130.8507 Z-46.8323 A29.6620 C96.2629\nX-28.2151 Y-129.4814 Z-47.8085 A29.5890 C95.8828\nM30\n",
+    );
+    let m = "fixtures/ac_trunnion.machine.toml";
+    let e = "fixtures/ac_trunnion.errors.toml";
+    let output = dir.join("limit.comp.nc");
+    let out = nccomp(&[
+        "compensate",
+        "-m",
+        m,
+        "-e",
+        e,
+        s(&program),
+        "-o",
+        s(&output),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(stderr(&out).contains("travel limit"), "{}", stderr(&out));
+    // The move's end is still judged: the same program with its last A word turned by
+    // 0.01° is found.
+    let written = std::fs::read_to_string(&output).unwrap();
+    let broken = write(
+        &dir,
+        "limit.broken.nc",
+        &nudge(&written, "X-28.", 'A', 0.01),
+    );
+    let check = nccomp(&["verify", "-m", m, "-e", e, s(&program), s(&broken)]);
+    assert_eq!(check.status.code(), Some(1), "{}", stdout(&check));
+}
+
+/// `nccomp compensate` and `nccomp verify` stream both programs through the gate in
+/// chunks: a finding, or a block the reader refuses, far past the first chunk is located
+/// at its own line with its own text.
+#[test]
+fn findings_past_the_first_chunk_are_located_at_their_lines() {
+    let dir = scratch("verify-chunks");
+    let mut text = String::from("G21 G90 G17\nG0 X0 Y0 Z50. A0 C0\nG1 F1000\n");
+    for i in 0..30_000 {
+        let t = i as f64 * 0.01;
+        text.push_str(&format!(
+            "X{:.4} Y{:.4} Z{:.4}\n",
+            40.0 * t.sin(),
+            40.0 * t.cos(),
+            20.0 + 5.0 * (0.3 * t).sin()
+        ));
+    }
+    text.push_str("M30\n");
+    assert!(text.len() > 3 * 256 * 1024);
+    let program = write(&dir, "long.nc", &text);
+    let m = "fixtures/ac_trunnion.machine.toml";
+    let e = "fixtures/ac_trunnion.errors.toml";
+    let output = dir.join("long.comp.nc");
+    let out = nccomp(&[
+        "compensate",
+        "-m",
+        m,
+        "-e",
+        e,
+        s(&program),
+        "-o",
+        s(&output),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let written = std::fs::read_to_string(&output).unwrap();
+    let lines: Vec<&str> = written.lines().collect();
+    // A word moved 10 µm far down the written program.
+    let at = lines.len() - 1000;
+    let mut broken: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    let target = broken[at - 1].clone();
+    broken[at - 1] = nudge(&target, "Y", 'Y', 0.01).trim_end().to_string();
+    let path = write(&dir, "long.broken.nc", &(broken.join("\n") + "\n"));
+    let check = nccomp(&["verify", "-m", m, "-e", e, s(&program), s(&path)]);
+    let said = stdout(&check);
+    assert_eq!(check.status.code(), Some(1), "{said}");
+    assert!(said.contains(&format!("long.broken.nc:{at}:1")), "{said}");
+    assert!(
+        said.contains(&broken[at - 1]),
+        "the line's text is shown: {said}"
+    );
+    // A block the reader cannot read, far down: the written program cannot be read back
+    // there.
+    let mut unreadable: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    unreadable[at - 1] = format!("{} Q", unreadable[at - 1]);
+    let path = write(&dir, "long.unreadable.nc", &(unreadable.join("\n") + "\n"));
+    let check = nccomp(&["verify", "-m", m, "-e", e, s(&program), s(&path)]);
+    let said = stdout(&check);
+    assert_eq!(check.status.code(), Some(1), "{said}");
+    assert!(
+        said.contains(&format!("long.unreadable.nc:{at}:")),
+        "{said}"
+    );
+    assert!(said.contains("cannot be read back"), "{said}");
+}
+
+/// A move whose rotary axis turns past a full turn in one block passes the same pose twice:
+/// its pieces are matched to the place of the move their words give (the outside checker's
+/// held-out seeds, where the gate once refused right outputs).
+#[test]
+fn a_move_turning_past_a_full_turn_is_judged_piece_by_piece() {
+    let dir = scratch("verify-full-turn");
+    let program = write(
+        &dir,
+        "turn.nc",
+        "G21 G90 G17\nG0 X25.3819 Y83.4235 Z-7.4975 A-16.513 C268.503\nG1 F500\nC-157.4591\nX120.144 Y63.343 Z30.4176 A-13.404 C-144.965\nM30\n",
+    );
+    let m = "fixtures/checker_seed101.machine.toml";
+    let e = "fixtures/checker_seed101.errors.toml";
+    let output = dir.join("turn.comp.nc");
+    let out = nccomp(&[
+        "compensate",
+        "-m",
+        m,
+        "-e",
+        e,
+        s(&program),
+        "-o",
+        s(&output),
+    ]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let written = std::fs::read_to_string(&output).unwrap();
+    assert!(written.lines().count() > 8, "the turn is split: {written}");
+    let check = nccomp(&["verify", "-m", m, "-e", e, s(&program), s(&output)]);
+    assert_eq!(check.status.code(), Some(0), "{}", stdout(&check));
 }

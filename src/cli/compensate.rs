@@ -178,13 +178,18 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
         Some(src) => Box::new(&src[..]),
         None => input,
     };
-    // The original's text for the gate.
-    let original = |kept: &Option<Vec<u8>>| -> crate::Result<Vec<u8>> {
-        match kept {
-            Some(src) => Ok(src.clone()),
-            None => std::fs::read(args.input.as_deref().unwrap_or(Path::new("-")))
-                .map_err(|e| crate::Error::io(args.input.as_deref().unwrap_or(Path::new("-")), e)),
-        }
+    // The original for the gate: read again from its file (streamed), or the standard
+    // input kept.
+    let input_path = args.input.clone().unwrap_or_else(|| "-".into());
+    let open_input = move || -> std::io::Result<Box<dyn Read>> {
+        Ok(Box::new(std::fs::File::open(&input_path)?))
+    };
+    let original: crate::verify::Source<'_> = match &kept {
+        Some(src) => crate::verify::Text { name: &name, src }.into(),
+        None => crate::verify::Source::Stream {
+            name: &name,
+            open: &open_input,
+        },
     };
     let mut status = Status::Clean;
     let summary = match (&args.expected, output) {
@@ -192,7 +197,11 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
             let mut out = Vec::new();
             let mut summary = comp.run_stream(input, &name, &mut out, "<memory>")?;
             if verify && !summary.zero_model {
-                let verdict = gate(&comp, &summary, &name, &original(&kept)?, &name, &out)?;
+                let written = crate::verify::Text {
+                    name: &name,
+                    src: &out,
+                };
+                let verdict = gate(&comp, &summary, original, written.into())?;
                 summary.verdict = Some(verdict);
             }
             let (committed, expected_name) = read_file(expected)?;
@@ -209,22 +218,27 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
             let output_name = staged.name();
             let mut summary = comp.run_stream(input, &name, staged.file(), &output_name)?;
             if verify && !summary.zero_model {
-                // Read back what was written, as it lies in the file to be kept.
+                // Read back what was written, as it lies in the file to be kept (streamed
+                // from its start for each reading: the gate holds a chunk, not the program).
                 use std::io::{Seek, SeekFrom};
-                let file = staged.file();
-                let mut written = Vec::new();
-                file.seek(SeekFrom::Start(0))
-                    .and_then(|_| file.read_to_end(&mut written))
-                    .and_then(|_| file.seek(SeekFrom::End(0)))
+                let file = staged
+                    .file()
+                    .try_clone()
                     .map_err(|e| crate::Error::io(Path::new(&output_name), e))?;
-                let verdict = gate(
-                    &comp,
-                    &summary,
-                    &name,
-                    &original(&kept)?,
-                    &output_name,
-                    &written,
-                )?;
+                let open_written = move || -> std::io::Result<Box<dyn Read>> {
+                    let mut f = file.try_clone()?;
+                    f.seek(SeekFrom::Start(0))?;
+                    Ok(Box::new(f))
+                };
+                let written = crate::verify::Source::Stream {
+                    name: &output_name,
+                    open: &open_written,
+                };
+                let verdict = gate(&comp, &summary, original, written)?;
+                staged
+                    .file()
+                    .seek(SeekFrom::End(0))
+                    .map_err(|e| crate::Error::io(Path::new(&output_name), e))?;
                 summary.verdict = Some(verdict);
             }
             commit(vec![staged])?;
@@ -247,35 +261,18 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
 fn gate(
     comp: &Compensator<'_>,
     summary: &crate::compensate::Summary,
-    name: &str,
-    original: &[u8],
-    written_name: &str,
-    written: &[u8],
+    original: crate::verify::Source<'_>,
+    written: crate::verify::Source<'_>,
 ) -> crate::Result<crate::verify::Verdict> {
-    if let Some(d) = comp.predicted_beyond(summary, name, original) {
+    if let Some(d) = comp.predicted_beyond(summary, original) {
         return Err(crate::Error::Input(Box::new(d)));
     }
-    let dialect = comp.dialect_of(name, original);
-    let verdict = comp.verify(
-        crate::verify::Text {
-            name,
-            src: original,
-        },
-        crate::verify::Text {
-            name: written_name,
-            src: written,
-        },
-        dialect,
-    )?;
+    let dialect = comp.dialect_of(original.name(), &original.head(64 * 1024)?);
+    let verdict = comp.verify(original, written, dialect)?;
     if verdict.passed() {
         Ok(verdict)
     } else {
-        Err(crate::Error::Inputs(verdict.in_original(
-            crate::verify::Text {
-                name,
-                src: original,
-            },
-        )))
+        Err(crate::Error::Inputs(verdict.in_original(original)))
     }
 }
 

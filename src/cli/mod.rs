@@ -84,7 +84,7 @@ Exit status: 0 when the compensated program puts the tool on the original's nomi
     )]
     Verify(VerifyArgs),
     /// Parameter study and key errors: how much each error term moves the tool tip, and
-    /// which terms matter most for the error in one direction (paper 002).
+    /// which terms matter most for the error in one direction (Liu and Hong 2016, docs/model.md).
     #[command(
         after_help = "Examples:\n  nccomp sensitivity -m fixtures/grinder.machine.toml --at X=50,Y=45,Z=5\n  \
 nccomp sensitivity -m fixtures/grinder.machine.toml -b fixtures/grinder.budget.toml --svg ranking.svg\n\n\
@@ -95,7 +95,7 @@ See docs/budget.md.\n\n\
 Exit status: 0 on success, 2 when an input file or option is unusable."
     )]
     Sensitivity(SensitivityArgs),
-    /// Tolerance design: the cost–quality model of paper 002 solved for the tolerances of
+    /// Tolerance design: the cost–quality model of Liu and Hong (2016) solved for the tolerances of
     /// the key errors within their bounds.
     #[command(
         after_help = "Example:\n  nccomp tolerance -m fixtures/grinder.machine.toml -b fixtures/grinder.budget.toml\n\n\
@@ -104,10 +104,10 @@ file's [tolerance] table. See docs/budget.md.\n\n\
 Exit status: 0 on success, 2 when an input file or option is unusable."
     )]
     Tolerance(ToleranceArgs),
-    /// Compensate a touch probe's pre-travel: a probing speed per direction (paper 001).
+    /// Compensate a touch probe's pre-travel: a probing speed per direction (Bai, Li and Wu 2021, docs/model.md).
     #[command(
         long_about = "Compensate a touch-trigger probe's systematic error by its probing speed \
-(paper 001). Pre-travel is w = wT(α, β) + v·τ; choosing the speed per direction as \
+(Bai, Li and Wu 2021, docs/model.md). Pre-travel is w = wT(α, β) + v·τ; choosing the speed per direction as \
 v = v0 + (R − r(α, β))/τ makes it the same in every direction.\n\n\
 From ring-gauge radii at several speeds (--ring) nccomp fits the delay τ; from a map of \
 trigger radius over directions (--map) it computes the speed per direction; with a \
@@ -133,7 +133,7 @@ compensated. The file is written only on success, and atomically."
     #[command(subcommand)]
     Errors(ErrorsCommand),
     /// Identify the errors from a cut feature workpiece measured on the machine and on a
-    /// CMM, and separate quasi-static from dynamic errors (paper 000).
+    /// CMM, and separate quasi-static from dynamic errors (Liang and Liu 2024, docs/model.md).
     #[command(
         after_help = "Example:\n  nccomp identify -m fixtures/ac_trunnion.machine.toml --plan fixtures/feature_workpiece.plan.toml \\\n      --program fixtures/feature_workpiece.nc --on-machine probe.csv --cmm cmm.csv -o errors.toml\n\n\
 Prints the separation table (total = CMM − nominal, quasi-static = CMM − on-machine, dynamic = \
@@ -150,9 +150,9 @@ The quasi-static errors act while cutting and probing, the dynamic ones only whi
 See docs/identify.md.\n\nExit status: 0 on success, 2 when an input is unusable."
     )]
     SimulateCut(SimulateCutArgs),
-    /// Contour error of a program from a trace of the machine's axes (paper 003).
+    /// Contour error of a program from a trace of the machine's axes (Yu and Chen 2025, docs/model.md).
     #[command(
-        long_about = "Contour error of a five-axis program from a measured trace (paper 003). \
+        long_about = "Contour error of a five-axis program from a measured trace (Yu and Chen 2025, docs/model.md). \
 The program is the reference path, followed on the nominal machine as the controller \
 interpolates it; the trace holds the axis positions the machine reached (time, X, Y, Z, A, C, \
 ... in mm and degrees, columns named by the machine file's axes, optional commanded \

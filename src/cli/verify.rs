@@ -2,7 +2,7 @@
 //! disk held against its original under today's calibration.
 
 use super::compensate::PassArgs;
-use super::files::{print, read_file};
+use super::files::print;
 use crate::check::Status;
 use crate::compensate::Compensator;
 use crate::diag::{Severity, use_color};
@@ -35,20 +35,30 @@ pub(super) fn verify(args: &VerifyArgs) -> crate::Result<Status> {
     let machine = machine_file::load(&args.pass.machine)?;
     let errors = error_file::load(&args.pass.errors, &machine)?;
     let comp = Compensator::new(&machine, &errors, args.pass.options()?)?;
-    let (original, original_name) = read_file(&args.original)?;
-    let (written, written_name) = read_file(&args.compensated)?;
-    let dialect = comp.dialect_of(&original_name, &original);
-    let verdict = comp.verify(
-        crate::verify::Text {
-            name: &original_name,
-            src: &original,
-        },
-        crate::verify::Text {
-            name: &written_name,
-            src: &written,
-        },
-        dialect,
-    )?;
+    // Both programs are streamed from their files (read again for each reading).
+    let original_name = args.original.display().to_string();
+    let written_name = args.compensated.display().to_string();
+    let open = |path: &std::path::Path| {
+        let path = path.to_path_buf();
+        move || -> std::io::Result<Box<dyn std::io::Read>> {
+            Ok(Box::new(std::fs::File::open(&path)?))
+        }
+    };
+    let (open_original, open_written) = (open(&args.original), open(&args.compensated));
+    // Unreadable files are named as such before anything is read.
+    for path in [&args.original, &args.compensated] {
+        std::fs::File::open(path).map_err(|e| crate::Error::io(path, e))?;
+    }
+    let original = crate::verify::Source::Stream {
+        name: &original_name,
+        open: &open_original,
+    };
+    let written = crate::verify::Source::Stream {
+        name: &written_name,
+        open: &open_written,
+    };
+    let dialect = comp.dialect_of(&original_name, &original.head(64 * 1024)?);
+    let verdict = comp.verify(original, written, dialect)?;
     let status = if verdict.passed() {
         Status::Clean
     } else {

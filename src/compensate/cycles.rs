@@ -5,8 +5,10 @@
 //! compensates the cycle at its positioning points: the hole's X, Y and bottom Z from the
 //! pose at the bottom, R from the pose at the R plane, the rotary axes held where they are
 //! (a cycle has no rotary words). That is honest only where one X, Y serves the whole
-//! depth: where the tool at the R plane, with the bottom's X, Y, would be further from the
-//! hole's axis than the path tolerance, the cycle is refused (program it as G0/G1 moves).
+//! depth: judged on the words as written, the tool at the R plane the control holds, with
+//! the bottom's written X, Y, must be on the hole's axis within the path tolerance plus
+//! what rounding the words to the machine's resolution can add (no word can do better: a
+//! 0.0001 in step is 2.54 µm); otherwise the cycle is refused (program it as G0/G1 moves).
 //!
 //! Under a tilted working plane (G68.2 after G53.1) the cycle drills along the plane's Z:
 //! X, Y, Z and R are the tip in the plane's frame, the controller turns them into axis
@@ -75,6 +77,55 @@ impl CycleMode {
             format!("this canned cycle cannot be compensated: {why}"),
         )
     }
+
+    /// The hole's axis from its R plane.
+    fn axis(&self, cx: &Cx<'_, '_>) -> HoleAxis<'_> {
+        HoleAxis {
+            top: &self.r_plane,
+            frame: self.frame.as_ref(),
+            col: Self::col(cx),
+            level: "R plane",
+            instead: "program the cycle as G0/G1 moves",
+        }
+    }
+
+    /// One X, Y serves the whole depth as the hole is written: the bottom's written X, Y
+    /// at the R plane the control holds (`r_written`, program units).
+    fn judge_written(
+        &self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        state: &crate::compensate::State,
+        end: &Solution,
+        r_written: Option<f64>,
+    ) -> Result<(), Diagnostic> {
+        let (Some(top), Some(r)) = (self.r_solution.as_ref(), r_written) else {
+            return Ok(());
+        };
+        let r = Unit::inch(state.modal.inch).to_mm(r);
+        let written = match &self.frame {
+            Some(frame) => {
+                let tip = Vector3::new(state.tip_written[0], state.tip_written[1], r);
+                pass.plane_axes(frame, &tip, &state.emitted, state.modal.length)
+                    .ok_or_else(|| {
+                        Self::refuse(
+                            cx,
+                            "the nominal machine cannot reach the R plane above the corrected hole"
+                                .into(),
+                        )
+                    })?
+            }
+            None => {
+                let mut q = state.emitted;
+                q[self.vars[2]] = r;
+                q
+            }
+        };
+        pass.hole_axis_as_written(state, &self.axis(cx), (end, top), &written, |why| {
+            Self::refuse(cx, why)
+        })?;
+        Ok(())
+    }
 }
 
 impl CycleMode {
@@ -124,10 +175,8 @@ impl CycleMode {
     }
 }
 
-/// A hole's axis, for [`Pass::one_xy_for_the_depth`].
+/// A hole's axis, for [`Pass::hole_top`] and [`Pass::hole_axis_as_written`].
 pub(super) struct HoleAxis<'a> {
-    /// The X, Y variables.
-    pub xy: [usize; 2],
     /// The nominal values where the tool feeds from (the R plane, a set-up clearance).
     pub top: &'a [f64; MAX_AXES],
     /// The tilted working plane the hole is drilled in, along its Z.
@@ -139,11 +188,11 @@ pub(super) struct HoleAxis<'a> {
 }
 
 impl Pass<'_> {
-    /// One X, Y serves the whole depth of a hole whose bottom solves to `end`: the tool at
-    /// the hole's top level, with the bottom's X, Y, is on the hole's axis within the path
-    /// tolerance. The solution at the top and, under a plane, the bottom's and the top's
-    /// words.
-    pub(super) fn one_xy_for_the_depth(
+    /// The solution at a hole's top level (where the tool feeds from) and, under a plane,
+    /// the words of the bottom solved to `end` and of the top, in the plane's frame. Whether
+    /// one X, Y serves the whole depth is judged on the words as written
+    /// ([`Pass::hole_axis_as_written`]).
+    pub(super) fn hole_top(
         &self,
         cx: &Cx<'_, '_>,
         state: &mut crate::compensate::State,
@@ -152,43 +201,71 @@ impl Pass<'_> {
         hold: u32,
         refuse: impl Fn(String) -> Diagnostic,
     ) -> Result<(Solution, Vector3<f64>, Vector3<f64>), Diagnostic> {
-        let n = self.kin.len();
-        let [vx, vy] = hole.xy;
         let (top, _) = self.solve(hole.top, hold, cx, state)?;
         self.check_travel(&top.q, hole.col, cx)?;
-        let tolerance = self.options.path.unwrap_or_default().position;
-        let mut over = top.q;
-        over[vx] = end.q[vx];
-        over[vy] = end.q[vy];
+        if end.position_residual > 1e-6 {
+            return Err(refuse(format!(
+                "the tool cannot be put at the hole's bottom: the solve leaves it {:.2} µm off ({})",
+                end.position_residual * 1e3,
+                hole.instead
+            )));
+        }
         let (mut bottom_words, mut top_words) = (Vector3::zeros(), Vector3::zeros());
         if let Some(frame) = hole.frame {
-            // The controller goes down the plane's Z at the bottom's written X, Y.
             let length = state.modal.length;
             bottom_words = self.plane_words(frame, &end.q, length);
             top_words = self.plane_words(frame, &top.q, length);
-            let w = Vector3::new(bottom_words.x, bottom_words.y, top_words.z);
-            over = self
-                .plane_axes(frame, &w, &state.emitted, length)
-                .ok_or_else(|| {
-                    refuse(format!(
-                        "the nominal machine cannot reach the {} above the corrected hole",
-                        hole.level
-                    ))
-                })?;
         }
-        let (reached, _) = self.kin.pose(Model::Actual, &over[..n], state.modal.length);
-        let off = (reached.p - top.target.p).norm();
-        if off > tolerance || end.position_residual > 1e-6 {
+        Ok((top, bottom_words, top_words))
+    }
+
+    /// One X, Y serves the whole depth, as the words are written: the control goes down
+    /// the hole's axis (the machine's Z, or the plane's) at the bottom's written X, Y, from
+    /// the top level as written (the R word, or the surface coordinate the control holds
+    /// plus the set-up clearance), so `written` (the axis values it commands there) must put
+    /// the real tool on the nominal hole's axis, the line through the nominal bottom (`end`)
+    /// and top (`top`), within the path tolerance plus what rounding the words to the
+    /// machine's resolution can add (the floor the verification gate gives every block end,
+    /// [`crate::verify::Tolerances::rounding`]: no word can do better). Where the tool
+    /// stands along the axis there (in the air, above the surface) is not judged. Returns
+    /// the distance (mm).
+    pub(super) fn hole_axis_as_written(
+        &self,
+        state: &crate::compensate::State,
+        hole: &HoleAxis<'_>,
+        (end, top): (&Solution, &Solution),
+        written: &[f64; MAX_AXES],
+        refuse: impl Fn(String) -> Diagnostic,
+    ) -> Result<f64, Diagnostic> {
+        let n = self.kin.len();
+        let (reached, _) = self
+            .kin
+            .pose(Model::Actual, &written[..n], state.modal.length);
+        let off = distance_from_axis(&reached.p, &end.target.p, &top.target.p);
+        let tolerance = self.options.path.unwrap_or_default().position;
+        let bound = tolerance + crate::verify::Tolerances::rounding(self.machine);
+        if off.is_nan() || off > bound {
             return Err(refuse(format!(
-                "one X, Y cannot serve the whole depth here: with the bottom's correction the tool is {:.2} µm off the hole's axis at the {} (more than {:.2} µm; {})",
+                "one X, Y cannot serve the whole depth here: with the bottom's correction, as the words are written, the tool is {:.2} µm off the hole's axis at the {} (more than {:.2} µm: the tolerance of {:.2} µm and what the words' rounding to the machine's resolution can add; {})",
                 off * 1e3,
                 hole.level,
+                bound * 1e3,
                 tolerance * 1e3,
                 hole.instead
             )));
         }
-        Ok((top, bottom_words, top_words))
+        Ok(off)
     }
+}
+
+/// The distance of `p` from the line through `a` and `b` (from `b` where they coincide).
+fn distance_from_axis(p: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    let d = b - a;
+    let len = d.norm();
+    if len.is_nan() || len <= 1e-9 {
+        return (p - b).norm();
+    }
+    (p - b).cross(&(d / len)).norm()
 }
 
 /// A hole of an L-repeated block: its X, Y increments (variable, digits, exact units; none
@@ -426,13 +503,18 @@ impl Mode for CycleMode {
             cycle.r_exact = Some(cycle.initial_exact);
         }
         let (Some(bottom), Some(r_plane)) = (cycle.bottom, cycle.r_plane) else {
-            return refuse(match cycle.bottom {
-                None => "it needs its bottom (Z) and retract plane (R)",
-                Some(_) => {
+            return refuse(match (cycle.bottom, cycle.r_plane) {
+                (None, None) => "it needs its bottom (Z) and retract plane (R)",
+                (None, Some(_)) => "it gives no bottom (expected a Z word)",
+                (Some(_), _) => {
                     "it gives no R plane, and where a control then puts it is the control's rule (expected an R word; a machine file whose control takes the level the cycle starts from says so with `[cycles] missing_r = \"initial\"`)"
                 }
             });
         };
+        // The control holds the cycle's levels from here on, whether or not this hole can
+        // be compensated: the holes after it are judged with them (and refused for their
+        // own reasons, not for levels they do not repeat).
+        state.cycle = Some(cycle);
         if let Some(frame) = self.frame {
             return self.plane_target(b, &frame, cycle, q);
         }
@@ -478,25 +560,13 @@ impl Mode for CycleMode {
             .fold(0, |m, v| m | 1 << v)
     }
 
-    /// One X, Y serves the whole depth: the tool at the R plane, with the bottom's X, Y, is
-    /// still on the hole's axis.
+    /// The solution at the R plane (where one X, Y serves the whole depth is judged on the
+    /// written words, in [`Mode::write`]).
     fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic> {
         let (pass, cx, state, _) = b.parts();
-        let depth = pass.one_xy_for_the_depth(
-            cx,
-            state,
-            &HoleAxis {
-                xy: [self.vars[0], self.vars[1]],
-                top: &self.r_plane,
-                frame: self.frame.as_ref(),
-                col: Self::col(cx),
-                level: "R plane",
-                instead: "program the cycle as G0/G1 moves",
-            },
-            end,
-            hold,
-            |why| Self::refuse(cx, why),
-        )?;
+        let depth = pass.hole_top(cx, state, &self.axis(cx), end, hold, |why| {
+            Self::refuse(cx, why)
+        })?;
         (self.r_solution, self.bottom_words, self.r_words) = (Some(depth.0), depth.1, depth.2);
         Ok(())
     }
@@ -579,7 +649,8 @@ impl Mode for CycleMode {
                         insert_after_axis_words(cx, out, &zr);
                     }
                 }
-                return Ok(());
+                let r_written = self.cycle.and_then(|c| c.r_written);
+                return self.judge_written(pass, cx, state, end, r_written);
             }
             None => {
                 state.emitted[vz] = cycle.bottom_written.map_or(f64::NAN, |z| zu.to_mm(z));
@@ -614,7 +685,8 @@ impl Mode for CycleMode {
                 }
             }
         }
-        Ok(())
+        let r_written = self.cycle.and_then(|c| c.r_written);
+        self.judge_written(pass, cx, state, end, r_written)
     }
 
     /// Where the cycle leaves the tool: the R plane (G99) or the initial level (G98; R

@@ -14,7 +14,7 @@ mod pipeline;
 mod plane;
 mod presolve;
 mod split;
-mod stream;
+pub(crate) mod stream;
 mod summary;
 mod tcp;
 mod tnc_cycles;
@@ -407,7 +407,8 @@ impl<'m> Compensator<'m> {
         }
         let (mut summary, mut refused) = run.finish_all();
         if refused.is_empty()
-            && let Some(d) = self.predicted_beyond(&summary, path, src)
+            && let Some(d) =
+                self.predicted_beyond(&summary, crate::verify::Text { name: path, src }.into())
         {
             refused.push(d);
         }
@@ -416,11 +417,10 @@ impl<'m> Compensator<'m> {
                 name: path,
                 src: &out[start..],
             };
-            match self.verify(crate::verify::Text { name: path, src }, written, dialect) {
+            let original = crate::verify::Text { name: path, src };
+            match self.verify(original.into(), written.into(), dialect) {
                 Ok(verdict) if verdict.passed() => summary.verdict = Some(verdict),
-                Ok(verdict) => {
-                    refused = verdict.in_original(crate::verify::Text { name: path, src })
-                }
+                Ok(verdict) => refused = verdict.in_original(original.into()),
                 Err(crate::Error::Input(d)) => refused = vec![*d],
                 Err(crate::Error::Inputs(ds)) => refused = ds,
                 Err(e) => {
@@ -442,8 +442,7 @@ impl<'m> Compensator<'m> {
     pub fn predicted_beyond(
         &self,
         summary: &Summary,
-        path: &str,
-        src: &[u8],
+        original: crate::verify::Source<'_>,
     ) -> Option<Diagnostic> {
         let options = &self.passes[0].options;
         let tolerances = crate::verify::Tolerances::new(
@@ -458,18 +457,17 @@ impl<'m> Compensator<'m> {
         if summary.zero_model || held_linear || worst.value <= tolerances.end_position {
             return None;
         }
-        let offset = nc::lines(src)
-            .nth(worst.line.saturating_sub(1))
-            .map_or(0, |l| l.offset);
-        Some(Diagnostic::at(
-            path,
-            src,
-            offset,
+        let mut d = [original.at_line(
+            worst.line,
             format!(
                 "nccomp's own prediction leaves the tool tip {:.4} mm from the nominal one after compensation here, beyond the tolerance of {:.4} mm: this block cannot be compensated to it (expected a pose the solve can reach, e.g. away from a singular direction)",
                 worst.value, tolerances.end_position
             ),
-        ))
+        )];
+        // (Without the line's text the diagnostic still names file, line and column.)
+        let _ = original.fill(&mut d);
+        let [d] = d;
+        Some(d)
     }
 
     /// The block delete state outputs are for: the option's, else the machine file's.
@@ -489,8 +487,8 @@ impl<'m> Compensator<'m> {
     /// with this compensator's machine, errors, tolerances and held axes.
     pub fn verify(
         &self,
-        original: crate::verify::Text<'_>,
-        written: crate::verify::Text<'_>,
+        original: crate::verify::Source<'_>,
+        written: crate::verify::Source<'_>,
         dialect: nc::Dialect,
     ) -> crate::Result<crate::verify::Verdict> {
         let options = &self.passes[0].options;

@@ -262,80 +262,127 @@ impl Compensator<'_> {
         pass: &mut Run<'_, '_>,
         program: Option<(nc::Dialect, &[u8])>,
     ) -> crate::Result<()> {
-        use std::sync::mpsc::sync_channel;
+        use std::collections::VecDeque;
+        use std::sync::mpsc::{RecvTimeoutError, sync_channel};
         use std::time::{Duration, Instant};
-        // A chunk to read ahead, with the share of its solves the pass keeps; and back, with
-        // how long the helper waited for it.
-        type ToHelper = (Vec<u8>, usize, usize, Vec<Ahead>, f64);
-        type ToPass = (Vec<u8>, usize, usize, Vec<Ahead>, Duration);
+        // A chunk to read ahead (its index, a copy of its bytes, the share of its solves
+        // the pass keeps); and back, with how long the helper waited for it.
+        type ToHelper = (usize, Vec<u8>, usize, Vec<Ahead>, f64);
+        type ToPass = (usize, Vec<u8>, Vec<Ahead>, Duration);
         std::thread::scope(|scope| {
-            let (to_helper, work) = sync_channel::<ToHelper>(1);
-            let (to_pass, done) = sync_channel::<ToPass>(1);
+            let (to_helper, work) = sync_channel::<ToHelper>(2);
+            let (to_pass, done) = sync_channel::<ToPass>(2);
             scope.spawn(move || {
                 let mut predictor = Predictor::new(self);
                 if let Some((dialect, src)) = program {
                     predictor.program(dialect, src);
                 }
                 let mut idle_since = Instant::now();
-                for (bytes, before, offset, mut ahead, share) in work {
+                for (index, bytes, before, mut ahead, share) in work {
                     let waited = idle_since.elapsed();
                     ahead.clear();
                     predictor.chunk(self, &bytes, before, share, &mut ahead);
                     idle_since = Instant::now();
-                    if to_pass
-                        .send((bytes, before, offset, ahead, waited))
-                        .is_err()
-                    {
+                    if to_pass.send((index, bytes, ahead, waited)).is_err() {
                         break;
                     }
                 }
             });
+            // The helper's channels; dropped when the pass goes on alone.
+            let mut link = Some((to_helper, done));
             let mut share = START_SHARE;
-            let mut spare: Vec<(Vec<u8>, Vec<Ahead>)> = Vec::new();
+            // Buffers to reuse: chunk bytes, and solves ahead.
+            let mut bufs: Vec<Vec<u8>> = Vec::new();
+            let mut aheads: Vec<Vec<Ahead>> = Vec::new();
             let mut out = Vec::with_capacity(CHUNK + CHUNK / 4);
-            let mut in_flight = 0;
+            // Chunks read and not yet run: index, bytes, lines before, offset.
+            let mut pending: VecDeque<(usize, Vec<u8>, usize, usize)> = VecDeque::new();
+            let mut next_index = 0;
             let mut reading = true;
+            // The longest the pass waits for the helper's reply: about what the chunk
+            // would take it alone (its first chunk, which it runs alone, or its last one,
+            // if longer). A helper that cannot reply in that time (the other core busy) is
+            // left, and the pass goes on alone: two threads are never much slower than one.
+            let mut alone = Duration::ZERO;
+            let mut patience = Duration::ZERO;
             loop {
-                // Keep the helper a chunk ahead of the pass.
-                while reading && in_flight < 2 {
+                // Keep the helper up to two chunks ahead of the pass.
+                while reading && pending.len() < 2 {
                     match chunks
                         .next()
                         .map_err(|source| read_failure(input_name, source))?
                     {
                         Some((chunk, before, offset)) => {
-                            let (mut bytes, ahead) = spare.pop().unwrap_or_default();
+                            let mut bytes = bufs.pop().unwrap_or_default();
                             bytes.clear();
                             bytes.extend_from_slice(chunk);
-                            if to_helper
-                                .send((bytes, before, offset, ahead, share))
-                                .is_err()
-                            {
-                                break;
+                            if let Some((to_helper, _)) = &link {
+                                // The first chunk's solves the pass keeps: it starts
+                                // at once (a short program never waits for the helper).
+                                let keep = if next_index == 0 { 1.0 } else { share };
+                                let mut copy = bufs.pop().unwrap_or_default();
+                                copy.clear();
+                                copy.extend_from_slice(chunk);
+                                let ahead = aheads.pop().unwrap_or_default();
+                                if to_helper
+                                    .send((next_index, copy, before, ahead, keep))
+                                    .is_err()
+                                {
+                                    link = None;
+                                }
                             }
-                            in_flight += 1;
+                            pending.push_back((next_index, bytes, before, offset));
+                            next_index += 1;
                         }
                         None => reading = false,
                     }
                 }
-                if in_flight == 0 {
-                    return Ok(());
-                }
-                let asked = Instant::now();
-                let Ok((bytes, before, offset, ahead, helper_waited)) = done.recv() else {
-                    // The helper is gone (it cannot fail; this is a panic, which the
-                    // scope passes on).
+                let Some((index, bytes, before, offset)) = pending.pop_front() else {
                     return Ok(());
                 };
-                share = balance(share, asked.elapsed(), helper_waited);
-                in_flight -= 1;
+                let mut ahead = Vec::new();
+                if index > 0
+                    && let Some((_, done)) = &link
+                {
+                    let asked = Instant::now();
+                    loop {
+                        match done.recv_timeout(patience.saturating_sub(asked.elapsed())) {
+                            // (The first chunk's reply has nothing for the pass.)
+                            Ok((i, back, reply, _)) if i < index => {
+                                bufs.push(back);
+                                aheads.push(reply);
+                            }
+                            Ok((_, back, reply, helper_waited)) => {
+                                share = balance(share, asked.elapsed(), helper_waited);
+                                ahead = reply;
+                                bufs.push(back);
+                                break;
+                            }
+                            Err(RecvTimeoutError::Timeout) => {
+                                link = None;
+                                break;
+                            }
+                            // The helper is gone (it cannot fail; this is a panic,
+                            // which the scope passes on).
+                            Err(RecvTimeoutError::Disconnected) => return Ok(()),
+                        }
+                    }
+                }
+                let started = Instant::now();
                 let spent = pass.ahead(ahead);
                 let go_on = pass.chunk(&bytes, before, offset, input_name, &mut out);
+                let took = started.elapsed();
+                if index == 0 {
+                    alone = took;
+                }
+                patience = took.max(alone).max(Duration::from_millis(2));
                 output.write_all(&out).map_err(|source| Error::Io {
                     path: output_name.to_string(),
                     source,
                 })?;
                 out.clear();
-                spare.push((bytes, spent));
+                bufs.push(bytes);
+                aheads.push(spent);
                 if !go_on {
                     return Ok(());
                 }
@@ -453,7 +500,7 @@ fn copy_through(
 }
 
 /// Reads a stream in chunks cut after their last line ending.
-struct Chunks<R> {
+pub(crate) struct Chunks<R> {
     input: R,
     buf: Vec<u8>,
     /// Bytes of `buf` read and not yet handed out.
@@ -467,7 +514,7 @@ struct Chunks<R> {
 }
 
 impl<R: Read> Chunks<R> {
-    fn new(input: R) -> Self {
+    pub(crate) fn new(input: R) -> Self {
         Self::with_capacity(input, CHUNK)
     }
 
@@ -492,7 +539,7 @@ impl<R: Read> Chunks<R> {
     /// The next run of whole lines (the last one may lack its ending at the end of the
     /// input), with the number of lines before it and its offset in the stream; `None` at
     /// the end.
-    fn next(&mut self) -> std::io::Result<Option<(&[u8], usize, usize)>> {
+    pub(crate) fn next(&mut self) -> std::io::Result<Option<(&[u8], usize, usize)>> {
         self.buf.copy_within(self.taken..self.filled, 0);
         self.filled -= self.taken;
         self.offset += self.taken;

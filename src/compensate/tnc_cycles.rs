@@ -11,7 +11,9 @@
 //! holes and may not be rewritten where it stands (the control has read it), so where a
 //! hole needs another surface coordinate than the one the control holds, a copy of the
 //! definition with that Q203 is inserted before the call. The same check as G81's holds:
-//! one X, Y must serve the whole depth within the path tolerance.
+//! one X, Y must serve the whole depth, judged on the written X, Y at the set-up clearance
+//! above the surface coordinate the control holds
+//! ([`super::Pass::hole_axis_as_written`]).
 
 use super::Pass;
 use super::cycles::HoleAxis;
@@ -55,6 +57,17 @@ impl TncCycleMode {
             Self::col(cx),
             format!("this cycle call cannot be compensated: {why}"),
         )
+    }
+
+    /// The hole's axis from its set-up clearance.
+    fn axis(&self, cx: &Cx<'_, '_>) -> HoleAxis<'_> {
+        HoleAxis {
+            top: &self.r_plane,
+            frame: self.frame.as_ref(),
+            col: Self::col(cx),
+            level: "set-up clearance",
+            instead: "program the hole as L moves",
+        }
     }
 }
 
@@ -176,25 +189,13 @@ impl Mode for TncCycleMode {
             .fold(0, |m, v| m | 1 << v)
     }
 
-    /// One X, Y serves the whole depth: the tool at the set-up clearance, with the bottom's
-    /// X, Y, is still on the hole's axis.
+    /// The solution at the set-up clearance (where one X, Y serves the whole depth is
+    /// judged on the written words, in [`Mode::write`]).
     fn path(&mut self, b: &mut Block, end: &Solution, hold: u32) -> Result<(), Diagnostic> {
         let (pass, cx, state, _) = b.parts();
-        let depth = pass.one_xy_for_the_depth(
-            cx,
-            state,
-            &HoleAxis {
-                xy: [self.vars[0], self.vars[1]],
-                top: &self.r_plane,
-                frame: self.frame.as_ref(),
-                col: Self::col(cx),
-                level: "set-up clearance",
-                instead: "program the hole as L moves",
-            },
-            end,
-            hold,
-            |why| Self::refuse(cx, why),
-        )?;
+        let depth = pass.hole_top(cx, state, &self.axis(cx), end, hold, |why| {
+            Self::refuse(cx, why)
+        })?;
         (self.r_solution, self.bottom_words, self.r_words) = (Some(depth.0), depth.1, depth.2);
         Ok(())
     }
@@ -208,7 +209,7 @@ impl Mode for TncCycleMode {
         };
         let vz = self.vars[2];
         let zu = Unit::inch(state.modal.inch);
-        let [surface, bottom, _, _] = self.levels;
+        let [surface, bottom, clearance, _] = self.levels;
         let given_xy = self.vars[..2]
             .iter()
             .all(|&v| cx.motion.axis_words[v].is_some());
@@ -264,17 +265,43 @@ impl Mode for TncCycleMode {
             held = written;
         }
         // What the control is told: the hole's bottom as the written words and surface
-        // put it.
+        // put it, and the set-up clearance it feeds from (the Sinumerik cycle's safety
+        // distance above its reference plane likewise).
         let bottom_written = zu.to_mm(held) + (bottom - surface);
-        match self.frame {
+        let clearance_written = zu.to_mm(held) + (clearance - surface);
+        let length = state.modal.length;
+        let top_written = match self.frame {
             Some(frame) => {
                 let tip = Vector3::new(state.tip_written[0], state.tip_written[1], bottom_written);
-                if let Some(q) = pass.plane_axes(&frame, &tip, &state.emitted, state.modal.length) {
+                if let Some(q) = pass.plane_axes(&frame, &tip, &state.emitted, length) {
                     state.emitted = q;
                 }
+                let tip = Vector3::new(
+                    state.tip_written[0],
+                    state.tip_written[1],
+                    clearance_written,
+                );
+                pass.plane_axes(&frame, &tip, &state.emitted, length)
+                    .ok_or_else(|| {
+                        Self::refuse(
+                            cx,
+                            "the nominal machine cannot reach the set-up clearance above the corrected hole".into(),
+                        )
+                    })?
             }
-            None => state.emitted[vz] = bottom_written,
-        }
+            None => {
+                state.emitted[vz] = bottom_written;
+                let mut q = state.emitted;
+                q[vz] = clearance_written;
+                q
+            }
+        };
+        let Some(top) = self.r_solution.as_ref() else {
+            return Ok(());
+        };
+        pass.hole_axis_as_written(state, &self.axis(cx), (end, top), &top_written, |why| {
+            Self::refuse(cx, why)
+        })?;
         Ok(())
     }
 
@@ -340,21 +367,48 @@ fn surface_text(def: &CycleDef) -> Option<(u8, f64)> {
         return Some((u8::try_from(decimals).ok()?, text.parse().ok()?));
     }
     def.text.iter().find_map(|line| {
-        let (_, value) = value_at(line, b"Q203=")?;
+        let (_, value) = value_at(line, b"Q203")?;
         let text = std::str::from_utf8(value).ok()?;
         let decimals = text.split_once('.').map_or(0, |(_, f)| f.len());
         Some((u8::try_from(decimals).ok()?, text.parse().ok()?))
     })
 }
 
-/// The bytes after `key` up to a space, `;` or `~`, and where they start.
+/// The value parameter `key` (`Q203`) is set to in a definition line: where its text
+/// starts and its bytes (up to a space, `;` or `~`), however the spaces fall around the `=`
+/// (`Q203=-1.5`, `Q203=  -1.5`, `Q203 = -1.5`). Not in the line's comment, nor another
+/// parameter (`Q2030`) or a value (`Q204=Q203`).
 fn value_at<'a>(line: &'a [u8], key: &[u8]) -> Option<(usize, &'a [u8])> {
-    let start = line.windows(key.len()).position(|w| w == key)? + key.len();
-    let len = line[start..]
-        .iter()
-        .take_while(|b| !matches!(b, b' ' | b'\t' | b';' | b'~' | b'\r'))
-        .count();
-    Some((start, &line[start..start + len]))
+    let end = line.iter().position(|&b| b == b';').unwrap_or(line.len());
+    let line = &line[..end];
+    let blank = |b: Option<&u8>| matches!(b, Some(b' ' | b'\t'));
+    let mut from = 0;
+    while let Some(found) = line[from..].windows(key.len()).position(|w| w == key) {
+        let start = from + found;
+        from = start + 1;
+        let mut i = start + key.len();
+        if line.get(i).is_some_and(u8::is_ascii_digit)
+            || (start > 0 && !matches!(line[start - 1], b' ' | b'\t'))
+        {
+            continue;
+        }
+        while blank(line.get(i)) {
+            i += 1;
+        }
+        if line.get(i) != Some(&b'=') {
+            continue;
+        }
+        i += 1;
+        while blank(line.get(i)) {
+            i += 1;
+        }
+        let len = line[i..]
+            .iter()
+            .take_while(|b| !matches!(b, b' ' | b'\t' | b'~' | b'\r'))
+            .count();
+        return Some((i, &line[i..i + len]));
+    }
+    None
 }
 
 /// The definition's lines with `Q203=` set to `number` and the block number it takes as a
@@ -422,7 +476,7 @@ fn copy_with_surface(
                 line.splice(start..start + digits, (n + shift).to_string().bytes());
             }
         }
-        if let Some((start, value)) = value_at(&line, b"Q203=") {
+        if let Some((start, value)) = value_at(&line, b"Q203") {
             let end = start + value.len();
             line.splice(start..end, number.bytes());
         }

@@ -611,8 +611,18 @@ fn decomposed_map(free: &[usize], row: &dyn Fn(usize, usize) -> f64) -> SMatrix<
     // Singular values below this share of the largest count as zero: a combination of axes
     // that moves the tip a millionth as much as the others does not move it at all.
     const RANK: f64 = 1e-6;
+    // A non-finite Jacobian (axis values beyond any travel) would keep the iterative
+    // decompositions from converging: no step, and the solve reports it did not land.
+    if !(jp.iter().chain(jd.iter()).all(|x| x.is_finite())) {
+        return out;
+    }
+    // (Bounded iterations: a decomposition that does not converge gives no step.)
+    const ITERATIONS: usize = 10_000;
     let pinv = |a: &DMatrix<f64>| {
-        let svd = a.clone().svd(true, true);
+        let Some(svd) = nalgebra::SVD::try_new(a.clone(), true, true, f64::EPSILON, ITERATIONS)
+        else {
+            return DMatrix::zeros(a.ncols(), a.nrows());
+        };
         let top = svd.singular_values.max();
         svd.pseudo_inverse((top * RANK).max(1e-300))
             .unwrap_or_else(|_| DMatrix::zeros(a.ncols(), a.nrows()))
@@ -620,7 +630,9 @@ fn decomposed_map(free: &[usize], row: &dyn Fn(usize, usize) -> f64) -> SMatrix<
     let jp_pinv = pinv(&jp);
     // Null space of Jp from the eigenvectors of JpᵀJp (a full basis, unlike a thin SVD).
     let gram = jp.transpose() * &jp;
-    let eigen = gram.clone().symmetric_eigen();
+    let Some(eigen) = gram.clone().try_symmetric_eigen(f64::EPSILON, ITERATIONS) else {
+        return out;
+    };
     let top = eigen.eigenvalues.max().max(0.0);
     let null_cols: Vec<usize> = (0..m)
         .filter(|&i| eigen.eigenvalues[i] <= top * RANK * RANK)

@@ -384,6 +384,104 @@ fn continues(content: &[u8]) -> bool {
     content.trim_ascii_end().ends_with(b"~")
 }
 
+/// The parameters a continued line of a cycle definition sets: each `Qn=value` with its
+/// key and value text, however the spaces fall around the `=` (`Q200=3`, `Q200=  3`,
+/// `Q200 = 3`: the control reads them alike). A `~` that continues the block is not part
+/// of a value.
+fn cycle_parameters<'a>(
+    content: &'a [u8],
+    tokens: &[Token],
+    sig: &[usize],
+    at: At<'_>,
+) -> Result<Vec<(u32, &'a str)>, Diagnostic> {
+    let parts: Vec<(usize, &str)> = sig
+        .iter()
+        .map(|&i| (tokens[i].span.start, text(content, &tokens[i])))
+        .filter(|(_, t)| *t != "~")
+        .collect();
+    let mut out = Vec::new();
+    let mut k = 0;
+    while k < parts.len() {
+        let (col, t) = parts[k];
+        k += 1;
+        // The name, then `=` in this token or the next, then the value after it (in this
+        // token or the next).
+        let (name, rest) = match t.split_once('=') {
+            Some((name, rest)) => (name, Some(rest)),
+            None => match parts.get(k) {
+                Some((_, next)) if next.starts_with('=') => {
+                    k += 1;
+                    (t, Some(&next[1..]))
+                }
+                _ => (t, None),
+            },
+        };
+        let Some(rest) = rest else {
+            return Err(at(
+                col,
+                format!("`{t}` in a cycle definition: expected a parameter such as Q200=2"),
+            ));
+        };
+        let value = if rest.is_empty() {
+            match parts.get(k) {
+                Some((_, value)) => {
+                    k += 1;
+                    *value
+                }
+                None => "",
+            }
+        } else {
+            rest
+        };
+        let value = value.trim_end_matches('~');
+        let Some((key, _)) = q_key(name.as_bytes()).filter(|(_, sign)| *sign == 1.0) else {
+            return Err(at(
+                col,
+                format!(
+                    "`{}` in a cycle definition: expected a Q parameter such as Q200",
+                    if name.is_empty() { t } else { name }
+                ),
+            ));
+        };
+        if value.is_empty() || value.contains('=') {
+            return Err(at(
+                col,
+                format!(
+                    "`{}=` in a cycle definition: expected its value (a number, or a Q parameter)",
+                    q_name(key)
+                ),
+            ));
+        }
+        out.push((key, value));
+    }
+    Ok(out)
+}
+
+/// The cycle a `CYCL DEF` block defines, however the control's spellings place the spaces
+/// (`CYCL DEF 200`, `CYCL DEF9.0`, `CYCL DEF 9 .0`, `CYCL DEF9 .1`): its number, its
+/// sub-block (`1` of `7.1`; empty for none), the index in `sig` of the token that names it,
+/// and of the first token after the number. `None`: the block is not `CYCL DEF n`.
+fn cycle_number<'a>(word: impl Fn(usize) -> &'a str) -> Option<(u32, &'a str, usize, usize)> {
+    let (id, at, mut next) = match word(1) {
+        "DEF" => (word(2), 2, 3),
+        w => (w.strip_prefix("DEF")?, 1, 2),
+    };
+    let id = id.trim_end_matches('~');
+    let (main, mut sub) = id.split_once('.').unwrap_or((id, ""));
+    if !id.contains('.')
+        && let Some(s) = word(next).trim_end_matches('~').strip_prefix('.')
+        && !s.is_empty()
+        && s.bytes().all(|b| b.is_ascii_digit())
+    {
+        sub = s;
+        next += 1;
+    }
+    if main.is_empty() || !main.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    Some((main.parse().ok()?, sub, at, next))
+}
+
 /// What an `L` block's words ask for, beside its axis words.
 #[derive(Default)]
 struct LWords {
@@ -438,30 +536,10 @@ impl Reader<'_> {
             tnc.continued = continues(content);
             if let Some(def) = tnc.defining.as_mut() {
                 def.text.push(content.to_vec());
-                for &i in &sig {
-                    let t = text(content, &tokens[i]);
-                    if t == "~" {
-                        continue;
-                    }
-                    let Some((name, value)) = t.split_once('=') else {
-                        return Err(at(
-                            tokens[i].span.start,
-                            format!(
-                                "`{t}` in a cycle definition: expected a parameter such as Q200=2"
-                            ),
-                        ));
-                    };
-                    let Some((key, _)) = q_key(name.as_bytes()) else {
-                        return Err(at(
-                            tokens[i].span.start,
-                            format!(
-                                "`{name}` in a cycle definition: expected a Q parameter such as Q200"
-                            ),
-                        ));
-                    };
-                    let param = match value.trim_end_matches('~').parse::<f64>() {
+                for (key, value) in cycle_parameters(content, tokens, &sig, at)? {
+                    let param = match value.parse::<f64>() {
                         Ok(v) if v.is_finite() => Param::Known(v),
-                        _ => match q_key(value.trim_end_matches('~').as_bytes()) {
+                        _ => match q_key(value.as_bytes()) {
                             Some((k, sign)) => match tnc.q.get(&k) {
                                 Some(v) => Param::Known(sign * v),
                                 None => Param::Unknown(q_name(k)),
@@ -1430,26 +1508,47 @@ impl Reader<'_> {
             }
             return self.cycle_call(col(0), modal, tnc, at, out);
         }
-        if word(1) != "DEF" {
+        if !word(1).starts_with("DEF") {
             return Err(at(col(1), "expected CYCL DEF or CYCL CALL".into()));
         }
-        let id = word(2).trim_end_matches('~');
-        let (main, sub) = id.split_once('.').unwrap_or((id, ""));
-        let Ok(cycle) = main.parse::<u32>() else {
-            return Err(at(col(2), format!("`{id}`: expected a cycle number")));
+        let Some((cycle, sub, id, next)) = cycle_number(word) else {
+            let (c, id) = match word(1) {
+                "DEF" if sig.len() > 2 => (col(2), word(2)),
+                "DEF" => (col(1), ""),
+                w => (col(1) + 3, &w[3..]),
+            };
+            let what = if id.is_empty() {
+                String::new()
+            } else {
+                format!("`{id}`: ")
+            };
+            return Err(at(
+                c,
+                format!("{what}expected a cycle number after CYCL DEF (such as 200 or 7.1)"),
+            ));
         };
         match cycle {
-            7 => self.datum_shift(content, tokens, sig, sub, modal, tnc, at),
+            7 => self.datum_shift(
+                content,
+                tokens,
+                &sig[next.min(sig.len())..],
+                sub,
+                modal,
+                tnc,
+                at,
+            ),
+            // The dwell time (9) acts where it is defined, and the control never calls it:
+            // the drilling cycle defined before it stays the one M99 and CYCL CALL call.
             // Tolerance (32) and the dynamic tuning cycles (332, 392) move nothing and
             // transform nothing.
-            32 | 332 | 392 => {
+            9 | 32 | 332 | 392 => {
                 if tnc.continued {
                     tnc.defining = None;
                 }
                 Ok(false)
             }
             8 | 10 | 11 | 19 | 26 | 247 => Err(at(
-                col(2),
+                col(id),
                 format!(
                     "CYCL DEF {cycle} ({}) is not followed by nccomp (expected PLANE for tilting, CYCL DEF 7 for datum shifts)",
                     match cycle {
@@ -1515,13 +1614,14 @@ impl Reader<'_> {
         Ok(true)
     }
 
-    /// `CYCL DEF 7.n X… Y… Z…`: the datum shift, in the working plane in force.
+    /// `CYCL DEF 7.n X… Y… Z…` (`words`: the tokens after the cycle number): the datum
+    /// shift, in the working plane in force.
     #[allow(clippy::too_many_arguments)]
     fn datum_shift(
         &self,
         content: &[u8],
         tokens: &[Token],
-        sig: &[usize],
+        words: &[usize],
         sub: &str,
         modal: &mut Modal,
         tnc: &mut Tnc,
@@ -1530,7 +1630,7 @@ impl Reader<'_> {
         if sub == "0" || sub.is_empty() {
             return Ok(false);
         }
-        for &i in &sig[3..] {
+        for &i in words {
             let t = &tokens[i];
             let raw = text(content, t);
             let (c, value) = match &t.kind {

@@ -737,7 +737,20 @@ impl Reader<'_> {
             match w.letter {
                 b'N' => {}
                 b'X' | b'Y' | b'Z' => {
-                    xyz[(w.letter - b'X') as usize] = w.number();
+                    let value = w.number();
+                    // (As for axis words: a shift beyond any travel is a typing error,
+                    // and an infinite one would stall the solve.)
+                    if value.is_some_and(|v| !v.is_finite() || v.abs() > super::gcode::MAX_WORD) {
+                        return Err(at(
+                            t.span.start,
+                            format!(
+                                "{} in {kind} is out of range: expected a number within ±{:e} mm",
+                                w.letter as char,
+                                super::gcode::MAX_WORD
+                            ),
+                        ));
+                    }
+                    xyz[(w.letter - b'X') as usize] = value;
                 }
                 _ => {
                     return Err(at(

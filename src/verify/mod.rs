@@ -123,16 +123,15 @@ impl Verdict {
 
     /// The findings located in the original program `original` (for a run that keeps no
     /// written program to point at), each naming its written line.
-    pub fn in_original(&self, original: Text<'_>) -> Vec<Diagnostic> {
-        self.findings
+    pub fn in_original(&self, original: Source<'_>) -> Vec<Diagnostic> {
+        let mut found: Vec<Diagnostic> = self
+            .findings
             .iter()
             .enumerate()
             .map(|(k, d)| match self.original_lines.get(k).copied().unwrap_or(0) {
                 0 => d.clone(),
-                line => Diagnostic::at(
-                    original.name,
-                    original.src,
-                    line_offset(original.src, line),
+                line => original.at_line(
+                    line,
                     format!(
                         "{} (the compensated block would be line {} of the output; nothing was written)",
                         d.message.replace(&format!("the original's move at line {line}"), "this block's move"),
@@ -140,7 +139,10 @@ impl Verdict {
                     ),
                 ),
             })
-            .collect()
+            .collect();
+        // (Without the line's text the diagnostic still names file, line and column.)
+        let _ = original.fill(&mut found);
+        found
     }
 
     /// Blocks not followed, over all kinds.
@@ -197,6 +199,121 @@ impl std::fmt::Display for Verdict {
 pub struct Text<'a> {
     pub name: &'a str,
     pub src: &'a [u8],
+}
+
+/// Opens a program for reading from its start.
+pub type Open<'a> = dyn Fn() -> std::io::Result<Box<dyn std::io::Read>> + 'a;
+
+/// A program the gate reads: its text in memory, or read again from its start for each
+/// reading (streamed in chunks: the gate then holds a chunk of it, not the program; a TNC
+/// program, whose labels are looked up by name, is read whole).
+#[derive(Clone, Copy)]
+pub enum Source<'a> {
+    Memory(Text<'a>),
+    Stream { name: &'a str, open: &'a Open<'a> },
+}
+
+impl<'a> From<Text<'a>> for Source<'a> {
+    fn from(text: Text<'a>) -> Self {
+        Source::Memory(text)
+    }
+}
+
+impl<'a> Source<'a> {
+    /// Its name in messages.
+    pub fn name(&self) -> &'a str {
+        match self {
+            Source::Memory(t) => t.name,
+            Source::Stream { name, .. } => name,
+        }
+    }
+
+    /// Its first `n` bytes (or all of it, if shorter): enough to tell its dialect.
+    pub fn head(&self, n: usize) -> crate::Result<Vec<u8>> {
+        use std::io::Read;
+        match self {
+            Source::Memory(t) => Ok(t.src[..n.min(t.src.len())].to_vec()),
+            Source::Stream { name, open } => {
+                let mut head = Vec::new();
+                open()
+                    .and_then(|r| r.take(n as u64).read_to_end(&mut head))
+                    .map_err(|e| read_error(name, e))?;
+                Ok(head)
+            }
+        }
+    }
+
+    /// A diagnostic at the start of line `line` (its text filled in by [`Source::fill`]
+    /// for a streamed program).
+    pub fn at_line(&self, line: usize, message: String) -> Diagnostic {
+        match self {
+            Source::Memory(t) => Diagnostic::at(t.name, t.src, line_offset(t.src, line), message),
+            Source::Stream { name, .. } => Diagnostic {
+                path: name.to_string(),
+                line: line.max(1),
+                column: 1,
+                message,
+                source_line: String::new(),
+                code: None,
+            },
+        }
+    }
+
+    /// The text of the lines of this program's diagnostics made by [`Source::at_line`]
+    /// (one more reading of a streamed program).
+    pub fn fill(&self, diagnostics: &mut [Diagnostic]) -> crate::Result<()> {
+        let Source::Stream { name, open } = self else {
+            return Ok(());
+        };
+        let mut wanted: Vec<usize> = diagnostics
+            .iter()
+            .filter(|d| d.path == *name && d.source_line.is_empty())
+            .map(|d| d.line)
+            .collect();
+        if wanted.is_empty() {
+            return Ok(());
+        }
+        wanted.sort_unstable();
+        wanted.dedup();
+        let mut found = std::collections::HashMap::new();
+        let mut chunks =
+            crate::compensate::stream::Chunks::new(open().map_err(|e| read_error(name, e))?);
+        while let Some((chunk, before, _)) = chunks.next().map_err(|e| read_error(name, e))? {
+            let last = before + nc::line_ends(chunk) + 1;
+            if wanted.iter().any(|&l| l > before && l <= last) {
+                for line in nc::lines(chunk) {
+                    let number = before + line.number;
+                    if wanted.binary_search(&number).is_ok() {
+                        let mut text = String::from_utf8_lossy(line.content).into_owned();
+                        if text.ends_with('\r') {
+                            text.pop();
+                        }
+                        found.insert(number, text);
+                    }
+                }
+            }
+            if wanted.last().is_some_and(|&l| l <= last) {
+                break;
+            }
+        }
+        for d in diagnostics
+            .iter_mut()
+            .filter(|d| d.path == *name && d.source_line.is_empty())
+        {
+            if let Some(text) = found.get(&d.line) {
+                d.source_line = text.clone();
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A program that cannot be read.
+pub(crate) fn read_error(name: &str, source: std::io::Error) -> crate::Error {
+    crate::Error::Io {
+        path: name.to_string(),
+        source,
+    }
 }
 
 /// The end poses of a written move matched to an original one, by their lines and end
@@ -360,8 +477,8 @@ impl<'m> Gate<'m> {
     /// original cannot be read (the reader's refusals).
     pub fn verify(
         &self,
-        original: Text<'_>,
-        written: Text<'_>,
+        original: Source<'_>,
+        written: Source<'_>,
         dialect: Dialect,
         start_chain: usize,
         block_delete: Option<bool>,
@@ -386,8 +503,8 @@ impl<'m> Gate<'m> {
                 break;
             }
             verdict.states.push(skip);
-            let mut orig = lookahead(self, start_chain, dialect, original, skip);
-            let mut out = lookahead(self, start_chain, dialect, written, skip);
+            let mut orig = lookahead(self, start_chain, dialect, original, skip)?;
+            let mut out = lookahead(self, start_chain, dialect, written, skip)?;
             let state = state_words(skip, both);
             self.judge(&mut orig, &mut out, original, written, state, &mut verdict);
             // Read the original to its end: its refusals, and whether it has `/` blocks.
@@ -397,10 +514,8 @@ impl<'m> Gate<'m> {
                 (written, "the written program", out.unreachable),
             ] {
                 if let Some((line, angle)) = unreachable {
-                    verdict.findings.push(Diagnostic::at(
-                        text.name,
-                        text.src,
-                        line_offset(text.src, line),
+                    verdict.findings.push(text.at_line(
+                        line,
                         format!(
                             "{side}'s tool vector here cannot be given by the machine's rotary axes{state}: the controller's solve ends {:.4}° from it (expected a direction the machine can reach)",
                             angle.to_degrees()
@@ -436,28 +551,24 @@ impl<'m> Gate<'m> {
                 }
             }
         }
+        original.fill(&mut verdict.findings)?;
+        written.fill(&mut verdict.findings)?;
         Ok(verdict)
     }
 
     /// Hold the written items against the original's in one block-delete state (`state`:
     /// its words for messages).
-    fn judge<O, W>(
+    fn judge(
         &self,
-        orig: &mut Lookahead<'_, 'm, O>,
-        out: &mut Lookahead<'_, 'm, W>,
-        original: Text<'_>,
-        written: Text<'_>,
+        orig: &mut Lookahead<'_, 'm, '_>,
+        out: &mut Lookahead<'_, 'm, '_>,
+        original: Source<'_>,
+        written: Source<'_>,
         state: &str,
         verdict: &mut Verdict,
-    ) where
-        O: Iterator<Item = Result<Item, Diagnostic>>,
-        W: Iterator<Item = Result<Item, Diagnostic>>,
-    {
+    ) {
         let finding = |verdict: &mut Verdict, w_line: usize, o_line: usize, message: String| {
-            let offset = line_offset(written.src, w_line);
-            verdict
-                .findings
-                .push(Diagnostic::at(written.name, written.src, offset, message));
+            verdict.findings.push(written.at_line(w_line, message));
             verdict.original_lines.push(o_line);
         };
         // After a stretch the gate does not follow, the written program is taken up again
@@ -487,7 +598,7 @@ impl<'m> Gate<'m> {
                                     skipped += 1;
                                 }
                                 other => {
-                                    let w_line = item_line(other).unwrap_or(last_line(written.src));
+                                    let w_line = item_line(other).unwrap_or(out.items.last_line());
                                     finding(
                                         verdict,
                                         w_line,
@@ -515,20 +626,21 @@ impl<'m> Gate<'m> {
                                 if o.mv.start.is_none() || pieces.len() > MAX_PIECES {
                                     finding(
                                         verdict,
-                                        w.mv.line,
+                                        pieces[0].mv.line,
                                         o.mv.line,
                                         format!(
                                             "this move{state} does not end where the original's move at line {} ends, as the control reads the written words (the real tool tip {:.4} mm from the nominal one)",
                                             o.mv.line,
-                                            self.end_distance(&o, &w)
+                                            self.end_distance(&o, &pieces[0])
                                         ),
                                     );
                                     return;
                                 }
                             }
                             other => {
-                                let w_line = item_line(other).unwrap_or(last_line(written.src));
-                                let last = pieces.last().map(|w| w.mv.line).unwrap_or(w_line);
+                                let w_line = item_line(other).unwrap_or(out.items.last_line());
+                                // At the first written move that took it up: where it went astray.
+                                let last = pieces.first().map(|w| w.mv.line).unwrap_or(w_line);
                                 finding(
                                     verdict,
                                     last,
@@ -566,7 +678,7 @@ impl<'m> Gate<'m> {
                     0,
                     format!(
                         "the written program{state} moves after the original's last move ({}), as the control reads it",
-                        original.name
+                        original.name()
                     ),
                 );
                 return;
@@ -701,6 +813,16 @@ impl<'m> Gate<'m> {
     /// Whether written step `w` ends where original step `o` does (tip within the end
     /// tolerance, and the direction where it is judged).
     fn ends_together(&self, o: &Step, w: &Step) -> bool {
+        // A rotary axis a turn or more from the original's end gives the same pose at
+        // another place of the move (a piece of a move that turns past a full turn).
+        let kin = self.kin(o.chain, o.shift);
+        if w.chain == o.chain
+            && (0..kin.len()).any(|v| {
+                kin.kind(v) == AxisKind::Rotary && (w.mv.end[v] - o.mv.end[v]).abs() >= 180.0
+            })
+        {
+            return false;
+        }
         let (real, target) = self.end_poses(o, w);
         if (real.p - target.p).norm() > self.tolerances.end_position {
             return false;
@@ -971,6 +1093,20 @@ impl<'m> Gate<'m> {
                 };
                 start.max(end_devs[k]) - Tolerances::rounding(this.machine)
             };
+            // The same for the direction: what the piece's ends leave (a rotary axis
+            // held at a travel limit or at a singular pose, where the pass reports it).
+            let direction_floor = |this: &Self| {
+                let (Some(ws), Some(os)) = (w.mv.start, o.mv.start) else {
+                    return 0.0;
+                };
+                let os = if k == 0 { os } else { o.mv.at(s0, n) };
+                let start = angle_between(&this.real_at(w, &ws).o, &this.nominal_at(o, &os).o);
+                let end = angle_between(
+                    &this.real_at(w, &w.mv.end).o,
+                    &this.nominal_at(o, &o.mv.at(s1, n)).o,
+                );
+                start.max(end)
+            };
             if worst_p > path_p && worst_p > path_p + floor(self).max(0.0) {
                 found.push((
                     w.mv.line,
@@ -979,7 +1115,7 @@ impl<'m> Gate<'m> {
                         worst_p, o.mv.line, path_p
                     ),
                 ));
-            } else if worst_d > path_d {
+            } else if worst_d > path_d && worst_d > path_d + direction_floor(self) {
                 found.push((
                     w.mv.line,
                     format!(
@@ -1043,6 +1179,12 @@ impl<'m> Gate<'m> {
         let dist = |s: f64| (self.nominal_at(o, &o.mv.at(s, n)).p - real.p).norm();
         let near = projection(o, words, n).clamp(from, 1.0);
         let mut best = self.search(&dist, near, (near - 0.02).max(from), (near + 0.02).min(1.0));
+        // Where the words' own place on the move lands, it is the landing: a rotary axis
+        // turning past a full turn passes the same pose twice, and the other one is not
+        // where this piece is.
+        if best.position <= self.tolerances.end_position {
+            return best;
+        }
         let wide = self.search(&dist, from, from, 1.0);
         if wide.position < best.position {
             best = wide;
@@ -1121,9 +1263,9 @@ const SAMPLES: [f64; 3] = [0.25, 0.5, 0.75];
 
 /// One item of look-ahead over a program's items, each G43.5 move turned into rotary
 /// values as the controller turns it; a refusal ends the items and is kept.
-struct Lookahead<'g, 'm, I: Iterator<Item = Result<Item, Diagnostic>>> {
+struct Lookahead<'g, 'm, 'a> {
     gate: &'g Gate<'m>,
-    items: I,
+    items: read::Items<'m, 'a>,
     buf: Option<Item>,
     error: Option<Diagnostic>,
     /// The axis values the controller last commanded (where its solve starts).
@@ -1132,7 +1274,7 @@ struct Lookahead<'g, 'm, I: Iterator<Item = Result<Item, Diagnostic>>> {
     unreachable: Option<(usize, f64)>,
 }
 
-impl<I: Iterator<Item = Result<Item, Diagnostic>>> Lookahead<'_, '_, I> {
+impl Lookahead<'_, '_, '_> {
     fn peek(&mut self) -> Option<&Item> {
         if self.buf.is_none() && self.error.is_none() {
             match self.items.next() {
@@ -1161,25 +1303,24 @@ fn lookahead<'g, 'm, 'a>(
     gate: &'g Gate<'m>,
     chain: usize,
     dialect: Dialect,
-    text: Text<'a>,
+    source: Source<'a>,
     skip: bool,
-) -> Lookahead<'g, 'm, read::Items<'m, 'a, impl Iterator<Item = nc::Line<'a>> + use<'a, 'm>>> {
-    Lookahead {
+) -> crate::Result<Lookahead<'g, 'm, 'a>> {
+    Ok(Lookahead {
         gate,
         items: read::items(
             gate.machine,
             chain,
             dialect,
-            text.src,
-            text.name,
+            source,
             skip,
             gate.turn.clone(),
-        ),
+        )?,
         buf: None,
         error: None,
         last: [0.0; MAX_AXES],
         unreachable: None,
-    }
+    })
 }
 
 fn state_words(skip: bool, both: bool) -> &'static str {
@@ -1195,10 +1336,6 @@ fn item_line(item: Option<&Item>) -> Option<usize> {
         Item::Move(s) => Some(s.mv.line),
         Item::Gap { line, .. } => Some(*line),
     }
-}
-
-fn last_line(src: &[u8]) -> usize {
-    nc::lines(src).count().max(1)
 }
 
 /// The byte offset of 1-based line `line` in `src`.

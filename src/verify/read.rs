@@ -11,6 +11,7 @@ use crate::model::Machine;
 use crate::nc::{self, Dialect, Token, TokenKind};
 use crate::program::moves::{NominalMove, Shape, follow};
 use crate::program::{BlockMotion, Modal, MoveKind, Reader, WorkingPlane};
+use std::io::Read;
 
 /// Why a stretch of a program is not followed by the gate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -490,64 +491,160 @@ impl<'m> Follower<'m> {
     }
 }
 
-/// The items of program `src` in one block-delete state, one at a time (a program of
+/// The text the items are read from: whole (in memory), or streamed in chunks of whole
+/// lines (the gate then holds a chunk, not the program).
+enum Text<'a> {
+    Whole(std::borrow::Cow<'a, [u8]>),
+    Stream {
+        chunks: crate::compensate::stream::Chunks<Box<dyn std::io::Read>>,
+        buf: Vec<u8>,
+        /// Lines before the chunk in `buf`.
+        before: usize,
+    },
+}
+
+/// The items of a program in one block-delete state, one at a time (a program of
 /// millions of blocks is never held as items); an `Err` item is the reader's refusal, and
 /// ends the reading.
-pub struct Items<'m, 'a, L: Iterator<Item = nc::Line<'a>>> {
+pub struct Items<'m, 'a> {
     follower: Follower<'m>,
-    lines: L,
-    src: &'a [u8],
+    text: Text<'a>,
+    /// Where the next line starts in the text (or the chunk), and the lines of the chunk
+    /// read so far.
+    pos: usize,
+    read: usize,
+    /// The number of the last line read.
+    last: usize,
     path: &'a str,
     done: bool,
 }
 
-impl<'m, 'a, L: Iterator<Item = nc::Line<'a>>> Iterator for Items<'m, 'a, L> {
+impl Iterator for Items<'_, '_> {
     type Item = Result<Item, Diagnostic>;
 
     fn next(&mut self) -> Option<Self::Item> {
         if self.done {
             return None;
         }
-        for line in self.lines.by_ref() {
-            match self.follower.line(&line, self.path, self.src) {
+        loop {
+            let (buf, before) = match &mut self.text {
+                Text::Whole(src) => (&src[..], 0),
+                Text::Stream {
+                    chunks,
+                    buf,
+                    before,
+                } => {
+                    if self.pos >= buf.len() {
+                        match chunks.next() {
+                            Ok(Some((chunk, lines, _))) => {
+                                buf.clear();
+                                buf.extend_from_slice(chunk);
+                                *before = lines;
+                                self.pos = 0;
+                                self.read = 0;
+                            }
+                            Ok(None) => {
+                                self.done = true;
+                                return None;
+                            }
+                            Err(e) => {
+                                self.done = true;
+                                return Some(Err(Diagnostic {
+                                    path: self.path.to_string(),
+                                    line: self.last + 1,
+                                    column: 1,
+                                    message: format!("the program cannot be read: {e}"),
+                                    source_line: String::new(),
+                                    code: None,
+                                }));
+                            }
+                        }
+                    }
+                    (&buf[..], *before)
+                }
+            };
+            let Some(mut line) = nc::lines(&buf[self.pos..]).next() else {
+                if matches!(self.text, Text::Whole(_)) {
+                    self.done = true;
+                    return None;
+                }
+                self.pos = usize::MAX;
+                continue;
+            };
+            line.offset = self.pos;
+            self.read += 1;
+            line.number = before + self.read;
+            self.last = line.number;
+            self.pos += line.content.len() + line.ending.len();
+            match self.follower.line(&line, self.path, buf) {
                 Ok(Some(item)) => return Some(Ok(item)),
                 Ok(None) => {}
-                Err(d) => {
+                Err(mut d) => {
+                    // Located in the chunk: its lines come after `before` others.
+                    d.line += before;
                     self.done = true;
                     return Some(Err(d));
                 }
             }
         }
-        self.done = true;
-        None
     }
 }
 
-impl<'m, 'a, L: Iterator<Item = nc::Line<'a>>> Items<'m, 'a, L> {
+impl Items<'_, '_> {
     /// Whether a block read so far started with `/`.
     pub fn has_optional(&self) -> bool {
         self.follower.has_optional
     }
+
+    /// The number of the last line read (at the end: the program's last line).
+    pub fn last_line(&self) -> usize {
+        self.last.max(1)
+    }
 }
 
-/// The items of program `src` (named `path`) read in `dialect` from tool chain `chain`,
-/// with block delete `skip_optional`.
+/// The items of program `source` read in `dialect` from tool chain `chain`, with block
+/// delete `skip_optional`. A TNC program is read whole (its labels are looked up by
+/// name); the others stream.
 pub fn items<'m, 'a>(
     machine: &'m Machine,
     chain: usize,
     dialect: Dialect,
-    src: &'a [u8],
-    path: &'a str,
+    source: super::Source<'a>,
     skip_optional: bool,
     turn: Option<Turn<'m>>,
-) -> Items<'m, 'a, impl Iterator<Item = nc::Line<'a>> + use<'a>> {
-    Items {
-        follower: Follower::new(machine, chain, dialect, src, skip_optional, turn),
-        lines: nc::lines(src),
-        src,
+) -> crate::Result<Items<'m, 'a>> {
+    let path = source.name();
+    let text = match source {
+        super::Source::Memory(t) => Text::Whole(std::borrow::Cow::Borrowed(t.src)),
+        super::Source::Stream { open, .. } if dialect == Dialect::Heidenhain => {
+            let mut src = Vec::new();
+            open()
+                .and_then(|mut r| r.read_to_end(&mut src))
+                .map_err(|e| super::read_error(path, e))?;
+            Text::Whole(std::borrow::Cow::Owned(src))
+        }
+        super::Source::Stream { open, .. } => Text::Stream {
+            chunks: crate::compensate::stream::Chunks::new(
+                open().map_err(|e| super::read_error(path, e))?,
+            ),
+            buf: Vec::new(),
+            before: 0,
+        },
+    };
+    let whole: &[u8] = match &text {
+        Text::Whole(src) => src,
+        // Only a TNC program's reading looks at the whole text (its labels).
+        Text::Stream { .. } => &[],
+    };
+    Ok(Items {
+        follower: Follower::new(machine, chain, dialect, whole, skip_optional, turn),
+        text,
+        pos: 0,
+        read: 0,
+        last: 0,
         path,
         done: false,
-    }
+    })
 }
 
 /// The axis values at parameter `s` of a step (its end where its start is not known).

@@ -3,6 +3,7 @@
 
 pub mod cli;
 pub mod contract;
+pub mod skip;
 
 use nalgebra::Vector3;
 use nccomp::model::{
