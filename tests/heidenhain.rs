@@ -531,7 +531,9 @@ impl<'s> Control<'s> {
                 _ if w.starts_with("IPA") => polar = Some((w[3..].parse::<f64>().unwrap(), true)),
                 _ if w.starts_with("PA") => polar = Some((w[2..].parse::<f64>().unwrap(), false)),
                 _ if w.starts_with("IZ") => lead = Some(w[2..].parse::<f64>().unwrap()),
-                _ if w.starts_with('R') && kind == "CR" => radius = Some(w[1..].parse::<f64>().unwrap()),
+                _ if w.starts_with('R') && kind == "CR" => {
+                    radius = Some(w[1..].parse::<f64>().unwrap())
+                }
                 _ => {
                     let (c, value) = letter(w);
                     let k = "XYZ".find(c).unwrap_or_else(|| panic!("`{w}` in an arc"));
@@ -1406,13 +1408,21 @@ fn check_fixture(program: &str, machine: &str, errors: &str) {
         .count();
     assert_eq!(f.holes, calls, "{program}: every cycle call is evaluated");
     assert_eq!(
-        (f.inserted, f.split, f.arc_inserted, f.arcs, f.arcs_kept),
+        (
+            f.inserted,
+            f.split,
+            f.arc_inserted,
+            f.arcs,
+            f.arcs_kept,
+            f.poles
+        ),
         (
             summary.blocks_added,
             summary.moves_split,
             summary.arc_blocks_added,
             summary.arcs,
-            summary.arcs_kept
+            summary.arcs_kept,
+            summary.arc_poles
         ),
         "{program}: the summary counts other splits"
     );
@@ -1469,7 +1479,9 @@ fn arcs_in_tilted_planes_on_the_ac_trunnion_meet_the_contract() {
     // A C whose compensated end needs Z is written as a polar helix, which every TNC
     // reads; a C that gives its Z stays a C.
     assert!(
-        written.lines().any(|l| l.contains(" CP IPA") && l.contains(" IZ")),
+        written
+            .lines()
+            .any(|l| l.contains(" CP IPA") && l.contains(" IZ")),
         "{written}"
     );
     // The evaluation sees what the control makes of a kept arc's pole: the pole nccomp
@@ -1780,5 +1792,49 @@ fn a_feed_move_right_after_a_turn_to_the_plane_is_refused() {
         let positioned = program("7 L X+10 Y+5 Z+30 R0 FMAX");
         comp.run(positioned.as_bytes(), "p.h", &mut Vec::new())
             .unwrap_or_else(|e| panic!("{turn}: {e}"));
+    }
+}
+
+/// What nccomp cannot follow of an arc in a plane or under TCP is refused at its place,
+/// saying what was expected: a pole given before the plane changed, an IPA turning the
+/// other way than DR, an arc under M128, a word a C does not take.
+#[test]
+fn arcs_that_cannot_be_followed_are_refused_where_they_stand() {
+    let setup = Setup::load("ac_trunnion", "ac_trunnion");
+    let comp = Compensator::new(&setup.machine, &setup.errors, cli_options()).unwrap();
+    let head = "0 BEGIN PGM P MM\n1 L X+0 Y+0 Z+100 A+0 C+0 R0 FMAX\n";
+    let plane = "3 PLANE SPATIAL SPA-30 SPB0 SPC45 TURN FMAX SEQ- TABLE ROT\n4 L X+10 Y+0 Z+2 R0 FMAX\n5 L Z+0 F500\n";
+    for (body, at, says) in [
+        (
+            format!("2 CC X+0 Y+0\n{plane}6 C X+0 Y+10 DR+\n"),
+            "p.h:7:3",
+            "given in another frame",
+        ),
+        (
+            format!("{plane}6 CC X+0 Y+0\n7 CP IPA-90 IZ-1 DR+\n"),
+            "p.h:7:3",
+            "expected an incremental polar angle other than 0 whose sign is the direction's",
+        ),
+        (
+            format!("{plane}6 CC X+0 Y+0\n7 C X+0 Y+10 A+5 DR+\n"),
+            "p.h:7:14",
+            "expected the end's X and Y, and Z for a helix",
+        ),
+        (
+            "2 CC X+0 Y+0\n3 M128\n4 L X+10 Y+0 Z+2 R0 FMAX\n5 C X+0 Y+10 DR+\n".to_string(),
+            "p.h:6:3",
+            "C arcs under tool-centre-point control (M128, FUNCTION TCPM) are not compensated",
+        ),
+    ] {
+        let program = format!("{head}{body}99 END PGM P MM\n");
+        let err = comp
+            .run(program.as_bytes(), "p.h", &mut Vec::new())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains(&format!("{at}:")) || err.contains(&format!("{at}\n")),
+            "{body}: {err}"
+        );
+        assert!(err.contains(says), "{body}: {err}");
     }
 }

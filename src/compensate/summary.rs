@@ -94,8 +94,10 @@ pub struct Summary {
     /// the first.
     pub unsplit_moves: usize,
     pub first_unsplit: usize,
-    /// Arcs kept as arcs (compensated end and centre within the path tolerance).
+    /// Arcs kept as arcs (compensated end and centre within the path tolerance), and the
+    /// TNC poles (`CC` blocks) written before them for their centres.
     pub arcs_kept: usize,
+    pub arc_poles: usize,
     /// Arcs replaced by straight pieces, and the blocks that took.
     pub arcs: usize,
     pub arc_blocks_added: usize,
@@ -243,8 +245,16 @@ impl Summary {
             ));
         }
         if self.arcs_kept > 0 {
+            let poles = if self.arc_poles > 0 {
+                format!(
+                    ": {} added for their centres",
+                    count(self.arc_poles, "CC block")
+                )
+            } else {
+                String::new()
+            };
             out.push(format!(
-                "{} kept as arcs (compensated end and centre stay within the path tolerance)",
+                "{} kept as arcs (compensated end and centre stay within the path tolerance){poles}",
                 count(self.arcs_kept, "arc"),
             ));
         }
