@@ -814,9 +814,13 @@ impl<'m> Gate<'m> {
     /// tolerance, and the direction where it is judged).
     fn ends_together(&self, o: &Step, w: &Step) -> bool {
         // A rotary axis a turn or more from the original's end gives the same pose at
-        // another place of the move (a piece of a move that turns past a full turn).
+        // another place of the move (a piece of a move that turns past a full turn). Not in
+        // a working plane: there the rotary axes stand where the control turned them, from
+        // where each program left them (a half turn either way is one pose: the turns of
+        // the two programs may take either).
         let kin = self.kin(o.chain, o.shift);
         if w.chain == o.chain
+            && o.frame.is_none()
             && (0..kin.len()).any(|v| {
                 kin.kind(v) == AxisKind::Rotary && (w.mv.end[v] - o.mv.end[v]).abs() >= 180.0
             })
