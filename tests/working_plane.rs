@@ -886,6 +886,7 @@ fn refused(setup: &Setup, program: &str, at: &str, says: &str) {
 fn with_the_zero_model_a_plane_program_comes_back_unchanged() {
     for (name, program) in [
         ("ac_trunnion", "ac_trunnion_plane"),
+        ("ac_trunnion", "ac_trunnion_plane_arcs"),
         ("head_head", "head_head_plane"),
     ] {
         let mut setup = Setup::load(name);
