@@ -21,7 +21,7 @@ use super::pipeline::Out;
 use super::pipeline::{Block, Cx, Mode};
 use super::{Pass, State};
 use crate::diag::Diagnostic;
-use crate::kinematics::{MAX_AXES, Solution};
+use crate::kinematics::{MAX_AXES, Model, Solution};
 use crate::model::AxisKind;
 use crate::nc::Edit;
 use crate::nc::edit::Editor;
@@ -184,7 +184,13 @@ impl Mode for TncCycleMode {
             q_bottom[vz] = bottom;
             let mut r_plane = state.pos.nominal;
             r_plane[vz] = clearance;
-            (q_bottom, r_plane)
+            // The rotary axes stand where the last block left them (corrected, where it
+            // corrected the tool's direction): the hole's nominal points are reached with
+            // them there, so that the call writes no rotary word.
+            (
+                pass.standing(&q_bottom, &state.emitted, length),
+                pass.standing(&r_plane, &state.emitted, length),
+            )
         };
         pass.check_travel(&q_bottom, Self::col(cx), cx)?;
         pass.check_travel(&r_plane, Self::col(cx), cx)?;
@@ -384,6 +390,36 @@ impl Mode for TncCycleMode {
             decimals: state.decimals[vz],
             unit: zu,
         };
+    }
+}
+
+impl Pass<'_> {
+    /// Nominal axis values that put the tip where `q` puts it with the rotary axes at
+    /// their values in `standing` (`q` itself where they stand there already, or where
+    /// the nominal machine cannot).
+    fn standing(
+        &self,
+        q: &[f64; MAX_AXES],
+        standing: &[f64; MAX_AXES],
+        length: f64,
+    ) -> [f64; MAX_AXES] {
+        let n = self.kin.len();
+        if (0..n).all(|v| self.is_linear(v) || standing[v].to_bits() == q[v].to_bits()) {
+            return *q;
+        }
+        let tip = self.kin.pose(Model::Nominal, &q[..n], length).0.p;
+        let mut guess = *q;
+        for v in (0..n).filter(|&v| !self.is_linear(v)) {
+            guess[v] = standing[v];
+        }
+        let sol = self
+            .kin
+            .tcp_axes_with_rotaries(&tip, &guess[..n], length, &self.options.solve);
+        if sol.position_residual <= 1e-9 {
+            sol.q
+        } else {
+            *q
+        }
     }
 }
 
