@@ -33,7 +33,7 @@ pub(super) fn follow_feed(content: &[u8], tokens: &[Token], state: &mut State) {
     for t in tokens {
         if let TokenKind::Word(w) = &t.kind
             && w.letter == b'F'
-            && matches!(w.value, Value::Number { .. } | Value::Parameter { .. })
+            && matches!(w.value, Value::Number { .. } | Value::Parameter)
         {
             state.feed = Some(String::from_utf8_lossy(&content[t.span.clone()]).into_owned());
         }

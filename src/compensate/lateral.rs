@@ -85,16 +85,16 @@ impl Pass<'_> {
         let width = 2 * cells + 1;
         let lerp = |a: &[f64; MAX_AXES], b: &[f64; MAX_AXES], s: f64| {
             let mut q = [0.0; MAX_AXES];
-            for v in 0..n {
-                q[v] = a[v] + (b[v] - a[v]) * s;
+            for (v, x) in q.iter_mut().enumerate().take(n) {
+                *x = a[v] + (b[v] - a[v]) * s;
             }
             q
         };
         let offset = |q: &[f64; MAX_AXES], i: isize, j: isize| {
             let mut q = *q;
             let (x, y) = (i as f64 * side, j as f64 * side);
-            for v in 0..n {
-                q[v] += x * cyl.along[0][v] + y * cyl.along[1][v];
+            for (v, value) in q.iter_mut().enumerate().take(n) {
+                *value += x * cyl.along[0][v] + y * cyl.along[1][v];
             }
             q
         };
@@ -141,7 +141,7 @@ impl Pass<'_> {
                     let nearest = |a: isize| {
                         if a >= 0 {
                             a as f64
-                        } else if a + 1 <= 0 {
+                        } else if a < 0 {
                             (a + 1) as f64
                         } else {
                             0.0
