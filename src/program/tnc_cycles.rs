@@ -244,8 +244,8 @@ pub enum HoleStep {
 const MAX_STEPS: usize = 2000;
 
 /// The motion of drilling cycle `def` along the hole's axis from where the call leaves the
-/// tool over the hole, as the TNC cycles' descriptions give it ([S24] in
-/// docs/heidenhain.md), for the cycles whose motion is known exactly: 200 (drilling, with
+/// tool over the hole, as the TNC cycles' descriptions give it (docs/heidenhain.md, "Holes
+/// written out as L moves"), for the cycles whose motion is known exactly: 200 (drilling, with
 /// its pecks and dwells), 201 (reaming), 240 (centering to a depth). `text(q)`: the
 /// definition's text of parameter Q`q` (a number or a Q parameter). `Err`: why the motion
 /// is not written out.
