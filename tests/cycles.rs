@@ -1511,3 +1511,79 @@ fn tnc_holes_whose_motion_is_not_written_out_are_refused_with_the_reason() {
         );
     }
 }
+
+/// `CYCL CALL` gives no X, Y: where the hole needs another X, Y than the positioning
+/// block's (the tool leans 30 µrad: 1.9 µm between Z+50 and the bottom, 0.4 µm over the
+/// hole, which one X, Y would serve), it is written out as L moves where nccomp knows the
+/// cycle's motion (they carry X, Y), its bottom where it is meant; a tapping cycle, which
+/// is not written out, is refused there as before.
+#[test]
+fn a_cycl_call_that_needs_a_corrected_xy_is_written_out() {
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = leaning_errors(&machine, 73, 30e-6);
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let program = |number: u32, definition: &str| {
+        format!(
+            "0 BEGIN PGM D MM\n1 FN 0:Q3=150\n2 L X+0 Y+0 Z+50 A+0 C+0 R0 FMAX\n3 CYCL DEF {number} CYCLE~\n{definition}\n4 L X+20 Y-35.5 R0 FMAX\n5 CYCL CALL\n6 L Z+100 R0 FMAX\n7 M30\n8 END PGM D MM\n"
+        )
+    };
+    let drilling = program(
+        200,
+        "  Q200=2 ;SET-UP CLEARANCE~\n  Q201=-12 ;DEPTH~\n  Q206=Q3 ;FEED RATE FOR PLUNGING~\n  Q202=12 ;PLUNGING DEPTH~\n  Q203=+0 ;SURFACE COORDINATE~\n  Q204=20 ;2ND SET-UP CLEARANCE",
+    );
+    let mut out = Vec::new();
+    let summary = comp
+        .run(drilling.as_bytes(), "c.h", &mut out)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let written = String::from_utf8(out).unwrap();
+    assert_eq!(summary.holes_written_out, 1, "{written}");
+    assert!(!written.contains("CYCL CALL"), "{written}");
+    let numbers: Vec<u64> = written
+        .lines()
+        .filter_map(|l| l.split_whitespace().next()?.parse().ok())
+        .collect();
+    assert!(numbers.windows(2).all(|w| w[1] == w[0] + 1), "{written}");
+    // Its blocks: to the set-up clearance, to the bottom at FQ3, out to the 2nd set-up
+    // clearance; the bottom where it is meant.
+    let blocks = tnc_blocks(&written);
+    let moves: Vec<([f64; 3], bool, String)> = blocks
+        .iter()
+        .filter_map(|(_, b)| match b {
+            Block::Move { q, rapid, feed } => Some((*q, *rapid, feed.clone())),
+            Block::Dwell(_) => None,
+        })
+        .collect();
+    let bottom = moves
+        .iter()
+        .find(|(_, rapid, feed)| !rapid && feed == "FQ3")
+        .unwrap_or_else(|| panic!("{written}"));
+    let at = |model: Model, q: [f64; 3]| kin.pose(model, &[q[0], q[1], q[2], 0.0, 0.0], 0.0).0.p;
+    let off = (at(Model::Actual, bottom.0) - at(Model::Nominal, [20.0, -35.5, -12.0])).norm();
+    assert!(
+        off < 2e-4,
+        "the bottom is {:.3} µm off\n{written}",
+        off * 1e3
+    );
+    assert!(
+        (bottom.0[0] - 20.0).abs() > 1e-4,
+        "X needs its correction: {written}"
+    );
+    let tapping = program(
+        207,
+        "  Q200=2 ;SET-UP CLEARANCE~\n  Q201=-12 ;DEPTH~\n  Q239=+1.25 ;THREAD PITCH~\n  Q203=+0 ;SURFACE COORDINATE~\n  Q204=20 ;2ND SET-UP CLEARANCE",
+    );
+    let err = comp
+        .run(tapping.as_bytes(), "c.h", &mut Vec::new())
+        .unwrap_err()
+        .to_string();
+    let line = tapping
+        .lines()
+        .position(|l| l.contains("CYCL CALL"))
+        .unwrap()
+        + 1;
+    assert!(
+        err.contains(&format!("c.h:{line}:3: this cycle call cannot be compensated: the hole needs a corrected X, Y and the call does not give them")),
+        "{err}"
+    );
+}

@@ -238,6 +238,9 @@ impl Mode for TncCycleMode {
                 pass.write_tip_words(cx, &self.vars, &xy, None, state, out);
                 let moved = [state.tip_written[0], state.tip_written[1]] != before;
                 if moved && !given_xy && cx.motion.axis_words.iter().all(Option::is_none) {
+                    // Written out as L moves where nccomp knows the cycle's motion: they
+                    // give the corrected X, Y.
+                    state.hole_steps = self.written_out(state).ok();
                     return Err(Self::refuse(
                         cx,
                         "the hole needs a corrected X, Y and the call does not give them (expected L X… Y… … M99)".into(),
@@ -251,6 +254,7 @@ impl Mode for TncCycleMode {
                 let emitted = state.emitted;
                 pass.write_positions(cx, &q, false, state, out)?;
                 if state.emitted != emitted && cx.motion.axis_words.iter().all(Option::is_none) {
+                    state.hole_steps = self.written_out(state).ok();
                     return Err(Self::refuse(
                         cx,
                         "the hole needs a corrected X, Y and the call does not give them (expected L X… Y… … M99)".into(),
