@@ -25,6 +25,8 @@ use crate::program::tnc_cycles::HoleStep;
 pub(super) struct Saved {
     state: State,
     summary: Summary,
+    /// How many samples the run's trace had (the trace itself is not copied).
+    traced: usize,
 }
 
 /// Follow the F word in force in a TNC line (`F500`, `FQ1` in an `L`, arc or `TOOL
@@ -81,20 +83,29 @@ impl Run<'_, '_> {
         // The solutions solved ahead stay with the pass (the saved state does not need
         // them: no cycle is solved ahead).
         let presolved = std::mem::take(&mut self.state.presolved);
+        let trace = self.summary.trace.take();
         let saved = Saved {
             state: self.state.clone(),
             summary: self.summary.clone(),
+            traced: trace.as_ref().map_or(0, Vec::len),
         };
         self.state.presolved = presolved;
+        self.summary.trace = trace;
         Some(saved)
     }
 
-    /// Back to the state of `saved` (the solutions solved ahead as they are now).
+    /// Back to the state of `saved` (the solutions solved ahead as they are now, the
+    /// trace without what was added since).
     pub(super) fn restore(&mut self, saved: Saved) {
         let presolved = std::mem::take(&mut self.state.presolved);
+        let mut trace = self.summary.trace.take();
+        if let Some(t) = trace.as_mut() {
+            t.truncate(saved.traced);
+        }
         self.state = saved.state;
         self.state.presolved = presolved;
         self.summary = saved.summary;
+        self.summary.trace = trace;
     }
 
     /// Write the hole that `line` calls as the `steps` of its motion (see the module's
