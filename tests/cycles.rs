@@ -1017,7 +1017,8 @@ fn tnc_calls(program: &str) -> Vec<Call> {
 
 /// A TNC program on the AC trunnion at A0 C0 that defines `definition` (its `~` lines)
 /// as cycle `number` and calls it at each of `holes`; the tool stands at Z+50 before
-/// them and FQ1 (800) is the feed in force.
+/// them and FQ1 (800) is the feed in force; after them a rapid to Z+60 and a move at
+/// that feed.
 fn tnc_program(number: u32, definition: &str, holes: &[[f64; 2]]) -> String {
     let mut p = format!(
         "0 BEGIN PGM D MM\n1 FN 0:Q1=800\n2 FN 0:Q3=150\n3 L X+0 Y+0 Z+50 A+0 C+0 R0 FMAX\n4 L X+1 FQ1\n5 CYCL DEF {number} CYCLE~\n{definition}\n"
@@ -1027,10 +1028,11 @@ fn tnc_program(number: u32, definition: &str, holes: &[[f64; 2]]) -> String {
     }
     let n = holes.len() + 6;
     p.push_str(&format!(
-        "{n} L X+0 Y+0\n{} L Z+100 R0 FMAX\n{} M30\n{} END PGM D MM\n",
+        "{n} L Z+60 R0 FMAX\n{} L X+0 Y+0\n{} L Z+100 R0 FMAX\n{} M30\n{} END PGM D MM\n",
         n + 1,
         n + 2,
-        n + 3
+        n + 3,
+        n + 4
     ));
     p
 }
@@ -1444,8 +1446,12 @@ fn tnc_holes_one_xy_cannot_serve_are_written_out_as_their_motion() {
             k += 1;
             height = from;
         }
-        // The program's last feed move runs at FQ1.
-        let Block::Move { feed, rapid, .. } = &blocks[k].1 else {
+        // The program's rapid to Z+60, then its feed move at FQ1.
+        let Block::Move { rapid, .. } = &blocks[k].1 else {
+            panic!("{written}")
+        };
+        assert!(*rapid, "{written}");
+        let Block::Move { feed, rapid, .. } = &blocks[k + 1].1 else {
             panic!("{written}")
         };
         assert!(!rapid && feed == "FQ1");
@@ -1584,6 +1590,39 @@ fn a_cycl_call_that_needs_a_corrected_xy_is_written_out() {
         + 1;
     assert!(
         err.contains(&format!("c.h:{line}:3: this cycle call cannot be compensated: the hole needs a corrected X, Y and the call does not give them")),
+        "{err}"
+    );
+}
+
+/// After a cycle that moves the tool around its axis, where the control leaves the tool
+/// in the plane is its own: a feed move right after the call is refused at its line, a
+/// rapid positioning first passes.
+#[test]
+fn a_feed_move_right_after_a_cycle_around_its_axis_is_refused() {
+    let machine = ac_trunnion([0.0, 0.0, -100.0], [0.0, 0.0, 0.0]);
+    let errors = ErrorModel::zero(&machine);
+    let mut errors = errors;
+    errors.axes[1].squareness = Vector3::new(0.0, 0.0, 20e-6);
+    let comp = Compensator::new(&machine, &errors, Options::default()).unwrap();
+    let definition = "  Q200=1 ;SET-UP CLEARANCE~\n  Q201=-12 ;DEPTH~\n  Q206=Q3 ;FEED RATE FOR PLUNGING~\n  Q334=1 ;PLUNGING DEPTH~\n  Q203=-1 ;SURFACE COORDINATE~\n  Q204=20 ;2ND SET-UP CLEARANCE~\n  Q335=12 ;NOMINAL DIAMETER~\n  Q342=11.8 ;ROUGHING DIAMETER";
+    let program = tnc_program(208, definition, &[[35.25, -60.5]]);
+    comp.run(program.as_bytes(), "f.h", &mut Vec::new())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let right_after = program.replace("7 L Z+60 R0 FMAX", "7 L X+10 Y+5");
+    let err = comp
+        .run(right_after.as_bytes(), "f.h", &mut Vec::new())
+        .unwrap_err()
+        .to_string();
+    let line = right_after
+        .lines()
+        .position(|l| l == "7 L X+10 Y+5")
+        .unwrap()
+        + 1;
+    assert!(
+        err.contains(&format!(
+            "f.h:{line}:5: a feed move right after the cycle called at line {}",
+            line - 1
+        )),
         "{err}"
     );
 }

@@ -350,10 +350,13 @@ impl Mode for TncCycleMode {
     /// The tool ends at the larger of the set-up clearances above the surface the control
     /// holds.
     fn after(&mut self, b: &mut Block) {
-        let (pass, _, state, _) = b.parts();
+        let (pass, cx, state, _) = b.parts();
         let Some(def) = self.def.as_ref() else {
             return;
         };
+        if self.radius > 0.0 {
+            state.around_end = Some(cx.line.number);
+        }
         let zu = Unit::inch(state.modal.inch);
         let [surface, _, _, end] = self.levels;
         let held = def.surface_written.map_or(surface, |s| zu.to_mm(s));
