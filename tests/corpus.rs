@@ -245,6 +245,21 @@ fn the_heidenhain_cam_programs_compensate_with_consecutive_block_numbers() {
         // Rigid tapping (207) in two tilted planes: one X, Y serves each hole's depth on
         // this machine's errors.
         ("hm_dmu85_W5246NS01007B10.h", "dmu85_ac", "dmu85_ac", 2),
+        // CC/C arcs in a tilted working plane (hyperMILL's identity plane), kept as arcs
+        // with a pole of their own where the compensated end needs one.
+        (
+            "hm_dmu85_W5246NS01007B11.h",
+            "dmu85_ac_b11",
+            "dmu85_ac",
+            1,
+        ),
+        // CP helices (IPA, IZ) and C arcs in a plane tilted to the horizontal.
+        (
+            "hm_trimill_W5269NS01002A16.h",
+            "trimill_bc_a16",
+            "bc_head_table",
+            4,
+        ),
         (
             "fusion_heidenhain_contour-final-outer.h",
             "fusion_tnc_mill",
@@ -325,6 +340,12 @@ fn nccomp_verify_passes_on_every_compensated_cam_program() {
         ("hm_dmc105v_W5246NS01007A1.h", "dmc105v", "three_axis_tnc"),
         ("hm_dmc105v_W5246NS01007A10.h", "dmc105v", "three_axis_tnc"),
         ("hm_dmu85_W5246NS01007B10.h", "dmu85_ac", "dmu85_ac"),
+        ("hm_dmu85_W5246NS01007B11.h", "dmu85_ac_b11", "dmu85_ac"),
+        (
+            "hm_trimill_W5269NS01002A16.h",
+            "trimill_bc_a16",
+            "bc_head_table",
+        ),
         (
             "fusion_heidenhain_contour-final-outer.h",
             "fusion_tnc_mill",

@@ -43,6 +43,67 @@ impl Plane {
     }
 }
 
+/// An arc in a plane's X-Y (words): from `start` to `end` about `centre`, turning by
+/// `sweep` (rad, counter-clockwise positive, whole turns included), the radius and Z in
+/// proportion (a helix).
+#[derive(Clone, Copy, Debug)]
+struct Arc {
+    plane: Plane,
+    start: Vector3<f64>,
+    end: Vector3<f64>,
+    centre: [f64; 2],
+    sweep: f64,
+}
+
+impl Arc {
+    /// The words at `u` ∈ [0, 1] along the arc.
+    fn point(&self, u: f64) -> Vector3<f64> {
+        let [cx, cy] = self.centre;
+        let (a, b) = (self.start, self.end);
+        let (ra, rb) = ((a.x - cx).hypot(a.y - cy), (b.x - cx).hypot(b.y - cy));
+        let t = (a.y - cy).atan2(a.x - cx) + self.sweep * u;
+        let r = ra + (rb - ra) * u;
+        Vector3::new(cx + r * t.cos(), cy + r * t.sin(), a.z + (b.z - a.z) * u)
+    }
+
+    /// The distance of part-frame point `p` from the arc: the nearest of 2048 points along
+    /// it, refined.
+    fn distance(&self, p: Vector3<f64>) -> f64 {
+        let at = |u: f64| (self.plane.part(self.point(u)) - p).norm();
+        const GRID: usize = 2048;
+        let h = 1.0 / GRID as f64;
+        let best = (0..=GRID)
+            .map(|j| j as f64 * h)
+            .min_by(|&a, &b| at(a).total_cmp(&at(b)))
+            .unwrap();
+        let (mut lo, mut hi) = ((best - h).max(0.0), (best + h).min(1.0));
+        let g = (5f64.sqrt() - 1.0) / 2.0;
+        for _ in 0..60 {
+            let (x, y) = (hi - g * (hi - lo), lo + g * (hi - lo));
+            if at(x) < at(y) {
+                hi = y;
+            } else {
+                lo = x;
+            }
+        }
+        at(0.5 * (lo + hi))
+    }
+}
+
+/// The sweep from angle `a` to `b` the way DR turns (`clockwise`: DR-): at most a turn, an
+/// end at the start's angle a full one.
+fn dr_sweep(a: f64, b: f64, clockwise: bool) -> f64 {
+    let turn = std::f64::consts::TAU;
+    let d = (b - a).rem_euclid(turn);
+    let full = d < 1e-9 || d > turn - 1e-9;
+    match (clockwise, full) {
+        (false, true) => turn,
+        (false, false) => d,
+        (true, true) => -turn,
+        (true, false) => d - turn,
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
     /// Machine axes: the words are axis values (X Y Z plus the datum).
@@ -74,6 +135,8 @@ struct Step {
     /// The block calls a drilling cycle (`M99`, `CYCL CALL`): the hole it drills. The
     /// step then ends where the cycle leaves the tool (Q203 + max(Q200, Q204)).
     hole: Option<Hole>,
+    /// An arc in the plane (C, CR, CP): the words along it.
+    arc: Option<Arc>,
 }
 
 /// A machining cycle's definition (`CYCL DEF 200` … and its `~` lines): its number and
@@ -253,6 +316,8 @@ struct Control<'s> {
     params: HashMap<String, f64>,
     /// The drilling cycle defined last (its `~` lines fill it in).
     cycle: Option<Cycle>,
+    /// The circle centre of the last `CC` (X, Y).
+    pole: Option<[f64; 2]>,
 }
 
 /// Split a TNC line into its block number and the rest.
@@ -313,6 +378,7 @@ impl<'s> Control<'s> {
             labels,
             params: HashMap::new(),
             cycle: None,
+            pole: None,
         }
     }
 
@@ -370,6 +436,7 @@ impl<'s> Control<'s> {
                     tip1: Vector3::zeros(),
                     known: self.known == 0b11111,
                     hole: None,
+                    arc: None,
                 }))
             }
             "CYCL" => {
@@ -461,6 +528,21 @@ impl<'s> Control<'s> {
                 None
             }
             "L" => self.straight(&words[1..]),
+            "CC" => {
+                let mut c = [None; 2];
+                for w in &words[1..] {
+                    let (letter, value) = letter(w);
+                    let k = match letter {
+                        'X' => 0,
+                        'Y' => 1,
+                        other => panic!("CC with {other}: poles in X-Y only here"),
+                    };
+                    c[k] = Some(value.parse::<f64>().unwrap());
+                }
+                self.pole = Some([c[0].unwrap(), c[1].unwrap()]);
+                None
+            }
+            "C" | "CR" | "CP" => Some(self.arc(words[0], &words[1..])),
             "LBL" => panic!("a label before the program's end"),
             w if w.starts_with('Q') && w.contains('=') => {
                 // A `~` line of a cycle's definition.
@@ -558,6 +640,88 @@ impl<'s> Control<'s> {
             tip1: Vector3::zeros(),
             known: self.known == 0b11111,
             hole: None,
+            arc: None,
+        }
+    }
+
+    /// `C X… Y… [Z…] DR±` about the pole, `CR X… Y… R± DR±`, `CP PA…|IPA… [IZ…|Z…] DR±`
+    /// about the pole: an arc in the plane's X-Y (words), Z in proportion.
+    fn arc(&mut self, kind: &str, words: &[&str]) -> Step {
+        let plane = self.plane.expect("arcs in a tilted plane only here");
+        assert!(!self.tcp && self.pending.is_none());
+        let q0 = self.q;
+        let start = plane.words(self.setup.forward(self.q, self.length).0);
+        let mut end = start;
+        let (mut clockwise, mut radius, mut polar, mut lead) = (None, None, None, None);
+        for w in words {
+            match *w {
+                "DR+" => clockwise = Some(false),
+                "DR-" => clockwise = Some(true),
+                "R0" => {}
+                _ if w.starts_with('F') => {}
+                _ if w.starts_with("IPA") => polar = Some((w[3..].parse::<f64>().unwrap(), true)),
+                _ if w.starts_with("PA") => polar = Some((w[2..].parse::<f64>().unwrap(), false)),
+                _ if w.starts_with("IZ") => lead = Some(w[2..].parse::<f64>().unwrap()),
+                _ if w.starts_with('R') && kind == "CR" => radius = Some(w[1..].parse::<f64>().unwrap()),
+                _ => {
+                    let (c, value) = letter(w);
+                    let k = "XYZ".find(c).unwrap_or_else(|| panic!("`{w}` in an arc"));
+                    end[k] = value.parse().unwrap();
+                }
+            }
+        }
+        let clockwise = clockwise.expect("DR+ or DR-");
+        let centre = match kind {
+            "CR" => {
+                // R > 0: at most half a turn (the centre right of the chord for DR-).
+                let r = radius.expect("CR's R");
+                let d = (end - start).xy();
+                let left = nalgebra::Vector2::new(-d.y, d.x).normalize();
+                let h = (r * r - d.norm_squared() / 4.0).max(0.0).sqrt();
+                let side = if clockwise == (r > 0.0) { -1.0 } else { 1.0 };
+                let c = (start.xy() + end.xy()) / 2.0 + left * (side * h);
+                [c.x, c.y]
+            }
+            _ => self.pole.expect("a pole before C and CP"),
+        };
+        let angle = |w: Vector3<f64>| (w.y - centre[1]).atan2(w.x - centre[0]);
+        let sweep = match polar {
+            Some((ipa, true)) => {
+                assert_eq!(ipa < 0.0, clockwise, "IPA's sign is DR's");
+                ipa.to_radians()
+            }
+            Some((pa, false)) => dr_sweep(angle(start), pa.to_radians(), clockwise),
+            None => dr_sweep(angle(start), angle(end), clockwise),
+        };
+        if polar.is_some() {
+            let r = (start.x - centre[0]).hypot(start.y - centre[1]);
+            let t = angle(start) + sweep;
+            end.x = centre[0] + r * t.cos();
+            end.y = centre[1] + r * t.sin();
+        }
+        if let Some(dz) = lead {
+            end.z = start.z + dz;
+        }
+        self.q = self
+            .setup
+            .linear_axes(plane.part(end), self.q[3], self.q[4], self.length);
+        Step {
+            kind: Kind::Plane,
+            rapid: false,
+            length: self.length,
+            q0,
+            q1: self.q,
+            tip0: Vector3::zeros(),
+            tip1: Vector3::zeros(),
+            known: self.known == 0b11111,
+            hole: None,
+            arc: Some(Arc {
+                plane,
+                start,
+                end,
+                centre,
+                sweep,
+            }),
         }
     }
 
@@ -656,6 +820,7 @@ impl<'s> Control<'s> {
                 tip1: self.datum + self.tip,
                 known,
                 hole: None,
+                arc: None,
             });
         } else if let Some(plane) = self.plane {
             assert!(self.pending.is_none(), "a move before the STAY block");
@@ -686,6 +851,7 @@ impl<'s> Control<'s> {
             tip1: Vector3::zeros(),
             known,
             hole: None,
+            arc: None,
         };
         Some(if call { self.drill(step) } else { step })
     }
@@ -747,9 +913,10 @@ struct Figures {
     /// Under TCP: the largest direction error along the path (rad), and its excess.
     path_direction: f64,
     path_direction_excess: f64,
-    /// Blocks inserted, and moves split.
+    /// Blocks inserted, and moves split; blocks inserted for arcs.
     inserted: usize,
     split: usize,
+    arc_inserted: usize,
     /// Holes drilled (cycle calls), the largest distance (mm) of the real tip at a hole's
     /// bottom from the programmed bottom, and at its set-up clearance from the programmed
     /// hole's axis point there; the definitions inserted before calls (copies with
@@ -768,6 +935,11 @@ struct Figures {
     around: usize,
     around_lateral: f64,
     around_change: f64,
+    /// Arcs kept as arcs (and the poles inserted before them), and arcs replaced by
+    /// pieces.
+    arcs_kept: usize,
+    poles: usize,
+    arcs: usize,
     /// Where an assertion would fail: the first few.
     faults: Vec<String>,
 }
@@ -823,6 +995,11 @@ fn evaluate(setup: &Setup, programmed: &str, written: &str) -> Figures {
                 .get(k)
                 .unwrap_or_else(|| panic!("line {} is missing from the output", i + 1));
             k += 1;
+            if step.arc.is_some() && w.step.is_none() && w.text.starts_with("CC ") {
+                // A pole inserted before a kept arc: the control takes it as the centre.
+                f.poles += 1;
+                continue;
+            }
             if step.hole.is_some() && w.step.is_none() && w.is_cycle {
                 // A copy of the definition inserted before the call: the control takes
                 // it as the definition in force.
@@ -856,7 +1033,16 @@ fn evaluate(setup: &Setup, programmed: &str, written: &str) -> Figures {
                 (actual(s.q1, s.length).p - target).norm() * 1e3
             );
         }
-        if pieces.len() > 1 {
+        if step.arc.is_some() {
+            if pieces.last().unwrap().arc.is_some() {
+                assert_eq!(pieces.len(), 1, "line {}: an arc kept after pieces", i + 1);
+                f.arcs_kept += 1;
+            } else {
+                assert!(pieces.iter().all(|p| p.arc.is_none()), "line {}", i + 1);
+                f.arcs += 1;
+                f.arc_inserted += pieces.len() - 1;
+            }
+        } else if pieces.len() > 1 {
             f.inserted += pieces.len() - 1;
             f.split += 1;
         }
@@ -920,10 +1106,27 @@ fn evaluate(setup: &Setup, programmed: &str, written: &str) -> Figures {
                 let a = setup.forward(step.q0, step.length).0;
                 let b = target;
                 for piece in &pieces {
-                    let dev = |q: Axes| from_segment(actual(q, piece.length).p, a, b);
+                    // The programmed path: the line, or the arc; the written piece as the
+                    // control runs it: straight (the axes in proportion), or on its arc.
+                    let dev = |q: Axes| {
+                        let p = actual(q, piece.length).p;
+                        match &step.arc {
+                            Some(arc) => arc.distance(p),
+                            None => from_segment(p, a, b),
+                        }
+                    };
+                    let along = |u: f64| match &piece.arc {
+                        Some(w) => setup.linear_axes(
+                            w.plane.part(w.point(u)),
+                            piece.q1[3],
+                            piece.q1[4],
+                            piece.length,
+                        ),
+                        None => lerp(&piece.q0, &piece.q1, u),
+                    };
                     let floor = dev(piece.q0) + dev(piece.q1);
                     for j in 0..=SAMPLES {
-                        let d = dev(lerp(&piece.q0, &piece.q1, j as f64 / SAMPLES as f64));
+                        let d = dev(along(j as f64 / SAMPLES as f64));
                         f.path = f.path.max(d);
                         let excess = d - (tol.position + floor);
                         f.path_excess = f.path_excess.max(excess);
@@ -1402,7 +1605,7 @@ fn plane_angles_match_hypermill_comments() {
 }
 
 /// A fixture: program, machine file, error file.
-const FIXTURES: [(&str, &str, &str); 5] = [
+const FIXTURES: [(&str, &str, &str); 6] = [
     ("tnc_ac_trunnion.h", "ac_trunnion", "ac_trunnion"),
     ("tnc_bc_head_table.h", "bc_head_table", "bc_head_table"),
     ("tnc_head_head.h", "head_head", "head_head"),
@@ -1416,6 +1619,8 @@ const FIXTURES: [(&str, &str, &str); 5] = [
         "bc_head_table",
         "bc_head_table",
     ),
+    // C, CR and CP arcs in tilted planes, helices.
+    ("tnc_ac_trunnion_arcs.h", "ac_trunnion", "ac_trunnion"),
 ];
 
 fn compensate(setup: &Setup, program: &str, name: &str) -> (String, Summary) {
@@ -1552,10 +1757,25 @@ fn check_fixture(program: &str, machine: &str, errors: &str) -> (Figures, Summar
         .count();
     assert_eq!(f.holes, calls, "{program}: every cycle call is evaluated");
     assert_eq!(
-        (f.inserted, f.split),
-        (summary.blocks_added, summary.moves_split),
+        (f.inserted, f.split, f.arc_inserted, f.arcs, f.arcs_kept),
+        (
+            summary.blocks_added,
+            summary.moves_split,
+            summary.arc_blocks_added,
+            summary.arcs,
+            summary.arcs_kept
+        ),
         "{program}: the summary counts other splits"
     );
+    if f.arcs + f.arcs_kept > 0 {
+        eprintln!(
+            "{program}: {} arcs kept ({} poles inserted before them), {} replaced by {} pieces",
+            f.arcs_kept,
+            f.poles,
+            f.arcs,
+            f.arc_inserted + f.arcs
+        );
+    }
     assert!(
         f.faults.is_empty(),
         "{program}:\n{}\n{written}",
@@ -1621,6 +1841,56 @@ fn cycles_that_move_around_their_axis_stay_within_their_bound() {
     assert!(f.around_change > 1e-5, "{}", f.around_change);
 }
 
+/// C, CR and CP arcs in tilted planes (poles in the plane's frame, helices by IZ and by a
+/// C with a Z end, a helix of two turns, a full circle, DR+ and DR-): kept as arcs where
+/// that stays within the path tolerance (a pole of their own written before them as a CC
+/// block, a C whose end needs Z written as CP … IZ), pieces otherwise.
+#[test]
+fn arcs_in_tilted_planes_on_the_ac_trunnion_meet_the_contract() {
+    let (p, m, e) = FIXTURES[5];
+    check_fixture(p, m, e);
+    let setup = Setup::load(m, e);
+    let (written, summary) = compensate(&setup, &fixture(p), p);
+    assert!(
+        summary.arcs_kept >= 3 && summary.arcs >= 3,
+        "{} kept, {} replaced",
+        summary.arcs_kept,
+        summary.arcs
+    );
+    // A C whose compensated end needs Z is written as a polar helix, which every TNC
+    // reads; a C that gives its Z stays a C.
+    assert!(
+        written.lines().any(|l| l.contains(" CP IPA") && l.contains(" IZ")),
+        "{written}"
+    );
+    // The evaluation sees what the control makes of a kept arc's pole: the pole nccomp
+    // wrote before a C (whose end its words give), moved by 10 µm, takes the arc off its
+    // path.
+    let lines: Vec<&str> = written.lines().collect();
+    let at = (1..lines.len() - 1)
+        .find(|&i| {
+            lines[i].contains(" CC ")
+                && lines[i - 1].contains(" CC ")
+                && lines[i + 1].contains(" C X")
+        })
+        .expect("a pole written before a kept C");
+    let broken: Vec<String> = lines
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            if i != at {
+                return l.to_string();
+            }
+            let (head, rest) = l.split_once(" X").unwrap();
+            let (x, tail) = rest.split_once(' ').unwrap();
+            let x: f64 = x.parse().unwrap();
+            format!("{head} X{:.4} {tail}", x + 0.01)
+        })
+        .collect();
+    let f = evaluate(&setup, &fixture(p), &(broken.join("\n") + "\n"));
+    assert!(!f.faults.is_empty(), "a pole 10 µm off passes");
+}
+
 #[test]
 fn with_the_zero_model_each_fixture_comes_back_byte_for_byte() {
     for (program, machine, errors) in FIXTURES {
@@ -1666,6 +1936,11 @@ fn snapshot_tnc_bc_head_table_cycles() {
 #[test]
 fn snapshot_tnc_head_head() {
     insta::assert_snapshot!(snapshot(2));
+}
+
+#[test]
+fn snapshot_tnc_ac_trunnion_arcs() {
+    insta::assert_snapshot!(snapshot(5));
 }
 
 /// A 45° swivel head (the DMU duoBLOCK of the corpus, fixtures/corpus/dmu100p_bc) turns

@@ -315,3 +315,8 @@ fn a_sinumerik_file_keeps_every_byte_it_does_not_change() {
     assert_eq!(out, src);
     assert!(Path::new(env!("CARGO_MANIFEST_DIR")).is_dir());
 }
+
+#[test]
+fn snapshot_840d_swivel_arcs() {
+    insta::assert_snapshot!(snapshot("840d_ac_trunnion_swivel_arcs.mpf"));
+}

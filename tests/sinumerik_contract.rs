@@ -121,6 +121,8 @@ struct Step {
     tip0: Vector3<f64>,
     tip1: Vector3<f64>,
     arc: Option<ArcPath>,
+    /// In a plane, an arc's frame: tip0 and tip1 are then its start and end words.
+    frame: Option<Plane>,
     /// Every axis has been set by the program (or CYCLE800's turn) at its end: where it
     /// stands is known.
     known: bool,
@@ -140,8 +142,13 @@ impl Step {
         };
         match self.kind {
             Kind::Tcp => setup.linear_axes(along(self.tip0, self.tip1), t, c, self.length),
+            Kind::Plane if self.arc.is_some() => {
+                // An arc in the plane: the words on it, put in the part frame.
+                let frame = self.frame.expect("an arc in a plane has its frame");
+                let w = along(self.tip0, self.tip1);
+                setup.linear_axes(frame.part(w), t, c, self.length)
+            }
             Kind::Axes | Kind::Plane => {
-                assert!(self.arc.is_none() || self.kind == Kind::Axes);
                 let p = along(
                     Vector3::new(self.q0[0], self.q0[1], self.q0[2]),
                     Vector3::new(self.q1[0], self.q1[1], self.q1[2]),
@@ -623,6 +630,7 @@ impl<'s> Control<'s> {
             tip0: Vector3::zeros(),
             tip1: Vector3::zeros(),
             arc: None,
+            frame: None,
             known: self.known == 0b11111,
             hole: None,
         }
@@ -762,6 +770,7 @@ impl<'s> Control<'s> {
             tip0: Vector3::zeros(),
             tip1: Vector3::zeros(),
             arc: None,
+            frame: None,
             known,
             hole: None,
         };
@@ -834,11 +843,18 @@ impl<'s> Control<'s> {
             s.arc = arc;
             s
         } else if let Some(frame) = frame {
-            assert!(arc.is_none(), "arcs in a plane are not in these fixtures");
             self.q = self
                 .setup
                 .linear_axes(frame.part(end), rot[0], rot[1], self.length);
-            step(Kind::Plane, self.q, known)
+            let mut s = step(Kind::Plane, self.q, known);
+            if arc.is_some() {
+                // X Y Z on the arc in the plane's frame.
+                s.tip0 = start;
+                s.tip1 = end;
+                s.arc = arc;
+                s.frame = Some(frame);
+            }
+            s
         } else {
             let p = end + self.trans;
             self.q = [p.x, p.y, p.z, rot[0], rot[1]];
@@ -1416,10 +1432,11 @@ fn check_fixture(program: &str) -> Vec<(usize, [f64; 2])> {
 // ---------------------------------------------------------------------------------------
 // The tests.
 
-const FIXTURES: [&str; 3] = [
+const FIXTURES: [&str; 4] = [
     "840d_ac_trunnion_traori.mpf",
     "840d_ac_trunnion_swivel.mpf",
     "840d_variables.mpf",
+    "840d_ac_trunnion_swivel_arcs.mpf",
 ];
 
 #[test]
@@ -1449,6 +1466,48 @@ fn a_cycle800_program_with_holes_meets_the_contract() {
 fn a_program_with_variables_meets_the_contract() {
     let planes = check_fixture(FIXTURES[2]);
     assert!(planes.is_empty());
+}
+
+/// Arcs in a CYCLE800 plane (I J and CR=, a helical entry, corners, wide arcs) are the
+/// control's arcs in the plane's frame: kept as arcs where that stays within the path
+/// tolerance, straight pieces otherwise, both kinds here.
+#[test]
+fn arcs_in_a_cycle800_plane_meet_the_contract() {
+    let planes = check_fixture(FIXTURES[3]);
+    assert_eq!(planes.len(), 1);
+    let setup = ac_trunnion();
+    let src = fixture(FIXTURES[3]);
+    let (written, summary) = compensate(&setup, &src, FIXTURES[3]);
+    assert!(
+        summary.arcs_kept >= 4 && summary.arcs >= 2,
+        "{} kept, {} replaced",
+        summary.arcs_kept,
+        summary.arcs
+    );
+    // The evaluation follows a kept arc along its way: its centre moved by 10 µm, its end
+    // kept, takes it off the path between its ends.
+    let kept = written
+        .lines()
+        .position(|l| l.starts_with("N140 G3 "))
+        .expect("a kept corner arc with its I J");
+    let broken: Vec<String> = written
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i != kept {
+                return l.to_string();
+            }
+            let (head, j) = l.split_once(" J").unwrap();
+            let value: f64 = j.parse().unwrap();
+            format!("{head} J{:.4}", value + 0.01)
+        })
+        .collect();
+    let f = evaluate(&setup, &src, &(broken.join("\n") + "\n"));
+    assert!(
+        f.faults.iter().any(|t| t.contains("strays")),
+        "{:?}",
+        f.faults
+    );
 }
 
 #[test]

@@ -125,6 +125,17 @@ fn ac_trunnion_plane() {
     ));
 }
 
+/// Arcs in tilted working planes: corners and a short helix kept as arcs (compensated end
+/// and centre), wide arcs and full helical turns as pieces.
+#[test]
+fn ac_trunnion_plane_arcs() {
+    insta::assert_snapshot!(compensate(
+        "ac_trunnion",
+        "ac_trunnion_plane_arcs",
+        Options::default()
+    ));
+}
+
 #[test]
 fn head_head_plane() {
     insta::assert_snapshot!(compensate(

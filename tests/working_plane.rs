@@ -193,6 +193,73 @@ impl Plane {
     }
 }
 
+/// An arc in the plane's X-Y (words): from `start` to `end` about `centre`, turning by
+/// `sweep` (rad, counter-clockwise positive), the radius and Z in proportion (a helix).
+#[derive(Clone, Copy, Debug)]
+struct Arc {
+    start: Vector3<f64>,
+    end: Vector3<f64>,
+    centre: [f64; 2],
+    sweep: f64,
+}
+
+impl Arc {
+    /// The arc of G2 (`clockwise`) or G3 from `start` to `end` about `centre`: G2 turns by
+    /// [-2π, 0), G3 by (0, 2π], an end at the start's angle a full turn.
+    fn new(start: Vector3<f64>, end: Vector3<f64>, centre: [f64; 2], clockwise: bool) -> Arc {
+        let angle = |w: Vector3<f64>| (w.y - centre[1]).atan2(w.x - centre[0]);
+        let turn = std::f64::consts::TAU;
+        let d = (angle(end) - angle(start)).rem_euclid(turn);
+        // An end at the start's angle (to the words' floating point): a full turn.
+        let full = d < 1e-9 || d > turn - 1e-9;
+        let d = if full { 0.0 } else { d };
+        let sweep = match (clockwise, full) {
+            (false, true) => turn,
+            (false, false) => d,
+            (true, true) => -turn,
+            (true, false) => d - turn,
+        };
+        Arc {
+            start,
+            end,
+            centre,
+            sweep,
+        }
+    }
+
+    /// The words at `u` ∈ [0, 1] along the arc.
+    fn point(&self, u: f64) -> Vector3<f64> {
+        let [cx, cy] = self.centre;
+        let (a, b) = (self.start, self.end);
+        let (ra, rb) = ((a.x - cx).hypot(a.y - cy), (b.x - cx).hypot(b.y - cy));
+        let t = (a.y - cy).atan2(a.x - cx) + self.sweep * u;
+        let r = ra + (rb - ra) * u;
+        Vector3::new(cx + r * t.cos(), cy + r * t.sin(), a.z + (b.z - a.z) * u)
+    }
+
+    /// The distance of part-frame point `p` from the arc in plane `plane`: the nearest of
+    /// 512 points along it, refined.
+    fn distance(&self, plane: &Plane, p: Vector3<f64>) -> f64 {
+        let at = |u: f64| (plane.part(self.point(u)) - p).norm();
+        const GRID: usize = 512;
+        let best = (0..=GRID)
+            .map(|j| j as f64 / GRID as f64)
+            .min_by(|&a, &b| at(a).total_cmp(&at(b)))
+            .unwrap();
+        let (mut lo, mut hi) = ((best - 1.0 / GRID as f64).max(0.0), (best + 1.0 / GRID as f64).min(1.0));
+        let g = (5f64.sqrt() - 1.0) / 2.0;
+        for _ in 0..60 {
+            let (x, y) = (hi - g * (hi - lo), lo + g * (hi - lo));
+            if at(x) < at(y) {
+                hi = y;
+            } else {
+                lo = x;
+            }
+        }
+        at(0.5 * (lo + hi))
+    }
+}
+
 /// What a block does, as the controller runs it.
 #[derive(Clone, Debug)]
 enum Step {
@@ -201,7 +268,7 @@ enum Step {
     Move {
         q: Axes,
         rapid: bool,
-        arc: Option<(Vector3<f64>, f64)>,
+        arc: Option<Arc>,
     },
     /// A hole of a drilling cycle: the axis values at the R point, at the bottom, and
     /// where the cycle leaves the tool (R, or the initial level under G98).
@@ -341,12 +408,27 @@ fn run(setup: &Setup, program: &str, rule: PlaneSolution) -> Vec<Event> {
                     }
                 } else {
                     let arc = (motion == 2 || motion == 3).then(|| {
-                        let radius = words[&'R'];
-                        let d = w - start;
-                        let left = Vector3::new(-d.y, d.x, 0.0).normalize();
-                        let h = (radius * radius - d.norm_squared() / 4.0).max(0.0).sqrt();
-                        let side = if motion == 2 { -1.0 } else { 1.0 };
-                        ((start + w) / 2.0 + left * (side * h), radius)
+                        let clockwise = motion == 2;
+                        let centre = match words.get(&'R') {
+                            Some(&radius) => {
+                                // R: the centre to the left of the chord for a G3 of at
+                                // most half a turn (R > 0), to the right for more.
+                                let d = (w - start).xy();
+                                let left = nalgebra::Vector2::new(-d.y, d.x).normalize();
+                                let h = (radius * radius - d.norm_squared() / 4.0).max(0.0).sqrt();
+                                let side = if clockwise == (radius > 0.0) { -1.0 } else { 1.0 };
+                                let c = (start.xy() + w.xy()) / 2.0 + left * (side * h);
+                                [c.x, c.y]
+                            }
+                            None => {
+                                // I, J: from the start (G91.1, the default).
+                                let i = words.get(&'I').copied().unwrap_or(0.0);
+                                let j = words.get(&'J').copied().unwrap_or(0.0);
+                                assert!(!words.contains_key(&'K'), "arcs in G17 only here");
+                                [start.x + i, start.y + j]
+                            }
+                        };
+                        Arc::new(start, w, centre, clockwise)
                     });
                     q = at(w);
                     Step::Move {
@@ -419,18 +501,23 @@ fn evaluate(setup: &Setup, programmed: &str, written: &str, rule: PlaneSolution)
     let mut prev_real: Option<Axes> = None;
     let mut prev_nominal: Option<Axes> = None;
     for event in &nominal {
-        // The written blocks of this block: inserted pieces share its number.
-        let first = k;
-        while k < real.len() && real[k].n != event.n {
-            k += 1;
-        }
-        assert!(k < real.len(), "N{} is missing from the output", event.n);
-        assert_eq!(first, k, "written blocks before N{}", event.n);
+        // The written blocks of this block: the blocks inserted before it (an arc's
+        // pieces share its number, a split move's take the numbers after the block before
+        // it), then its own.
         let mut pieces = Vec::new();
-        while k < real.len() && real[k].n == event.n {
+        while k < real.len() {
+            let own = real[k].n == event.n;
             pieces.push(real[k].clone());
             k += 1;
+            if own && real.get(k).is_none_or(|next| next.n != event.n) {
+                break;
+            }
         }
+        assert!(
+            pieces.last().is_some_and(|p| p.n == event.n),
+            "N{} is missing from the output",
+            event.n
+        );
         let last = pieces.last().unwrap();
         let target = setup.forward(end_of(&event.step), event.length).0;
         let off = (actual(end_of(&last.step), last.length) - target).norm();
@@ -473,16 +560,28 @@ fn evaluate(setup: &Setup, programmed: &str, written: &str, rule: PlaneSolution)
             let mut from = from_w;
             for piece in &pieces {
                 let to = end_of(&piece.step);
-                for i in 0..=16 {
-                    let p = actual(lerp(&from, &to, i as f64 / 16.0), piece.length);
+                // The written piece as the controller runs it: straight in the plane (the
+                // axes in proportion), or on its own arc in the plane.
+                let written_arc = match &piece.step {
+                    Step::Move { arc: Some(w), .. } => Some(*w),
+                    _ => None,
+                };
+                let piece_plane = piece.plane.unwrap_or(plane);
+                for i in 0..=32 {
+                    let u = i as f64 / 32.0;
+                    let q = match &written_arc {
+                        Some(w) => setup.linear_axes(
+                            piece_plane.part(w.point(u)),
+                            to[3],
+                            to[4],
+                            piece.length,
+                        ),
+                        None => lerp(&from, &to, u),
+                    };
+                    let p = actual(q, piece.length);
                     let off = match arc {
                         None => from_segment(p, a, b),
-                        Some((centre, radius)) => {
-                            let w = plane.words(p);
-                            let dz = w.z - centre.z;
-                            let dr = (w - centre).xy().norm() - radius;
-                            (dz * dz + dr * dr).sqrt()
-                        }
+                        Some(nominal) => nominal.distance(&plane, p),
                     };
                     worst_path = worst_path.max(off);
                 }
@@ -495,8 +594,13 @@ fn evaluate(setup: &Setup, programmed: &str, written: &str, rule: PlaneSolution)
     (worst_end, worst_path)
 }
 
+/// `program` compensated as `nccomp compensate` does by default (the path held to 1 µm).
 fn compensate(setup: &Setup, program: &str) -> Result<String, String> {
-    let comp = Compensator::new(&setup.machine, &setup.errors, Options::default()).unwrap();
+    let options = Options {
+        path: Some(PathTolerance::default()),
+        ..Options::default()
+    };
+    let comp = Compensator::new(&setup.machine, &setup.errors, options).unwrap();
     let mut out = Vec::new();
     comp.run(program.as_bytes(), "p.nc", &mut out)
         .map(|_| String::from_utf8(out).unwrap())
@@ -603,6 +707,49 @@ fn a_3_plus_2_program_on_the_ac_trunnion_lands_every_block_and_hole() {
         "{angles:?}"
     );
     check("ac_trunnion", &program, rule);
+}
+
+/// Arcs in tilted working planes (G2/G3 by I J or R, helices, a modal arc after one
+/// replaced by pieces): the words on the arc in the plane's frame. Kept as arcs where the
+/// controller's arc through the compensated words stays within the path tolerance,
+/// straight pieces otherwise; both kinds here, every block end landed and the path held.
+#[test]
+fn arcs_in_tilted_planes_on_the_ac_trunnion_stay_on_their_arcs() {
+    let program = fixture("ac_trunnion_plane_arcs");
+    let setup = Setup::load("ac_trunnion");
+    let rule = PlaneSolution::Shortest;
+    let angles = planes(&setup, &program, rule);
+    assert_eq!(angles.len(), 2, "{angles:?}");
+    let written = check("ac_trunnion", &program, rule);
+    let arcs = |text: &str| {
+        text.lines()
+            .filter(|l| l.contains(" G2 ") || l.contains(" G3 "))
+            .count()
+    };
+    // Kept arcs keep their G2/G3 (the modal one gets its own after pieces); the others
+    // are pieces.
+    assert!(arcs(&written) >= 5, "{written}");
+    assert!(arcs(&written) < arcs(&program) + 1, "{written}");
+    assert!(written.lines().count() > program.lines().count() + 100);
+    assert!(
+        written.lines().any(|l| l.starts_with("N310 G2 ")),
+        "the modal arc after pieces says G2 itself"
+    );
+    // The evaluation follows a kept arc along its way: a corner's centre moved by 10 µm,
+    // its end kept, takes it off the arc between its ends.
+    let broken: Vec<String> = written
+        .lines()
+        .map(|l| match l.strip_prefix("N140 G3 ") {
+            Some(rest) => {
+                let (head, j) = rest.split_once(" J").unwrap();
+                let j: f64 = j.parse().unwrap();
+                format!("N140 G3 {head} J{:.4}", j + 0.01)
+            }
+            None => l.to_string(),
+        })
+        .collect();
+    let (_, path) = evaluate(&setup, &program, &(broken.join("\n") + "\n"), rule);
+    assert!(path > 1.5e-3, "a centre 10 µm off strays {:.3} µm", path * 1e3);
 }
 
 #[test]

@@ -21,7 +21,7 @@ use crate::program::exact::Unit;
 use std::f64::consts::TAU;
 
 /// The centre of the circle through three points, if they are not (nearly) on a line.
-fn circle_centre(p: [(f64, f64); 3]) -> Option<(f64, f64)> {
+pub(super) fn circle_centre(p: [(f64, f64); 3]) -> Option<(f64, f64)> {
     let [(ax, ay), (bx, by), (cx, cy)] = p;
     let d = 2.0 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by));
     let scale = [(bx - ax), (by - ay), (cx - ax), (cy - ay)]

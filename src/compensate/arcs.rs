@@ -239,15 +239,22 @@ impl Mode for ArcMode {
 pub(super) fn straighten(cx: &Cx<'_, '_>, out: &mut Out<'_>, pieces_inserted: bool) {
     let mut editor = cx.editor(out.edits);
     if cx.motion.centre.is_some() || cx.motion.polar.is_some() || is_tnc_radius_arc(cx) {
-        // A TNC arc (C, CR, CP) becomes an L block: its keyword, its direction, its radius
-        // and its polar angle go.
+        // A TNC arc (C, CR, CP) becomes an L block: its keyword, its direction, its radius,
+        // its polar angle and a helix's height (IZ: the end's Z is written) go.
         if let Some(k) = cx.motion.arc_code {
             editor.replace_token(k, b"L");
         }
         for (i, t) in cx.tokens.iter().enumerate() {
             let text = &cx.line.content[t.span.clone()];
+            let lead = cx.motion.lead.is_some()
+                && text.len() > 2
+                && text[0] == b'I'
+                && matches!(text[1], b'X' | b'Y' | b'Z');
             let gone = t.kind == crate::nc::TokenKind::Other
-                && (text.starts_with(b"DR") || text.starts_with(b"IPA") || text.starts_with(b"PA"));
+                && (text.starts_with(b"DR")
+                    || text.starts_with(b"IPA")
+                    || text.starts_with(b"PA")
+                    || lead);
             if gone || cx.motion.arc_words[3] == Some(i) {
                 editor.remove_word(i);
             }
@@ -270,7 +277,7 @@ pub(super) fn straighten(cx: &Cx<'_, '_>, out: &mut Out<'_>, pieces_inserted: bo
 
 /// Give a kept arc modal in the original its G2/G3 (`clockwise`: G2) before its first
 /// axis word.
-fn restore_arc_code(cx: &Cx<'_, '_>, out: &mut Out<'_>, clockwise: bool) {
+pub(super) fn restore_arc_code(cx: &Cx<'_, '_>, out: &mut Out<'_>, clockwise: bool) {
     let first = cx
         .motion
         .axis_words

@@ -222,6 +222,10 @@ struct State {
     /// (G2/G3): the next arc kept as an arc must carry its own G2/G3, modal in the
     /// original or not.
     straightened: bool,
+    /// A TNC pole (CC) nccomp wrote before a kept arc: which CC of the program was in
+    /// force then (its `seq`) and the centre written (mm, the pole's plane): the control
+    /// holds it until the program's next CC.
+    pole_written: Option<(u64, [f64; 2])>,
     /// The tool length the last block that moved ran with: a feed move under another
     /// (a length changed with the axes standing) would start off the pose it needs.
     moved_length: f64,
@@ -570,6 +574,7 @@ impl<'m> Compensator<'m> {
             pieces: Vec::new(),
             end: None,
             straightened: false,
+            pole_written: None,
             zero: [0.0; 3],
             shifted: None,
         };

@@ -23,6 +23,7 @@
 //! more than the tolerance; an arc is replaced by straight TCP moves within half a micron
 //! of it, each end compensated. Inserted blocks are TCP blocks in the program's style.
 
+use super::arc_keep::{CentreWords, circle_centre};
 use super::pipeline::{Block, Cx, Mode, Out};
 use super::{INCH, Pass, State};
 use crate::diag::Diagnostic;
@@ -31,11 +32,17 @@ use crate::kinematics::{MAX_AXES, Model, Pose, Solution, SolveOptions, angle_bet
 use crate::model::AxisKind;
 use crate::nc::edit::Editor;
 use crate::nc::number::{decimals_for, same_text, write_fixed};
-use crate::program::arc::{centre_words, circle, plane_letters};
+use crate::program::arc::{
+    Centre, circle, commanded_sweep, plane_arc, plane_letters, plane_third,
+};
 use crate::program::exact::{Position, Unit};
 use crate::program::{WorkingPlane, gcode, heidenhain};
 use nalgebra::Vector3;
+use std::f64::consts::TAU;
 use std::fmt::Write;
+
+/// Decimals of a TNC polar angle (PA, IPA) as nccomp writes it: the control's 0.0001°.
+const ANGLE_DECIMALS: u8 = 4;
 
 /// More pieces than this for one arc means a radius or a tolerance that makes no sense.
 const MAX_ARC_PIECES: usize = 100_000;
@@ -100,6 +107,30 @@ pub(super) struct TcpMode {
     /// Under a tilted working plane (G68.2) the tip words are in its frame; the rotary
     /// axes stand where the plane put them.
     frame: Option<WorkingPlane>,
+    /// An arc in a plane kept as an arc: its centre as written.
+    kept: Option<KeptCentre>,
+}
+
+/// How a kept arc's centre is written.
+enum KeptCentre {
+    /// The block's I/J/K or R words (TNC: CR's R), changed or added.
+    Words(CentreWords),
+    /// A TNC arc about its pole: the pole's words to insert as a `CC` block before it
+    /// (none where the control holds that pole already), its value (mm), and the arc
+    /// written as `CP` where it is one.
+    Pole(Option<Vec<(u8, String)>>, [f64; 2], Option<Polar>),
+}
+
+/// A kept TNC arc written as a polar arc (`CP`): a CP of the program, or a C whose end
+/// needs the third coordinate it does not give (a helix in polar form, which every TNC
+/// reads).
+struct Polar {
+    /// The angle's token as written (`IPA+180.0012`, `PA-90.0004`).
+    angle: String,
+    /// The helix's height as written (`IZ-0.5001`), where the block gives it so.
+    lead: Option<String>,
+    /// Where the control ends the arc (words, mm).
+    end: Vector3<f64>,
 }
 
 impl TcpMode {
@@ -125,6 +156,7 @@ impl TcpMode {
             pieces: Vec::new(),
             end: None,
             frame: None,
+            kept: None,
         }
     }
 
@@ -257,6 +289,12 @@ impl Mode for TcpMode {
                 None => guess[v] = value,
             }
         }
+        if let Some(clockwise) = self.arc {
+            // The arc's end: a TNC polar arc's and a helix's are not all in its words.
+            let (arc, end) = self.tip_arc(cx, state, clockwise)?;
+            self.tip_arc = Some(arc);
+            state.tip_nominal = end.into();
+        }
         let words = Vector3::from(state.tip_nominal);
         let tip = self.part(&words);
         let nominal = if vector {
@@ -314,9 +352,6 @@ impl Mode for TcpMode {
             }
             sol.q
         };
-        if let Some(clockwise) = self.arc {
-            self.tip_arc = Some(self.tip_arc(cx, state, clockwise, words)?);
-        }
         // Under G43.5 at a singular pose the rotary axes keep their programmed values: the
         // vector is then written as programmed, and the controller holds the free axis where
         // it stands. The programmed axis values hold it where the program left it (the next
@@ -389,6 +424,15 @@ impl Mode for TcpMode {
         };
         let last = self.written_end(pass, 1.0, end, state);
         self.pieces.clear();
+        self.kept = None;
+        if self.tip_arc.is_some()
+            && let Some(kept) = self.keep_plane_arc(pass, cx, state, &start, &last, hold)?
+        {
+            // Kept as an arc: no pieces.
+            self.kept = Some(kept);
+            self.end = Some(last);
+            return Ok(());
+        }
         if let Some(arc) = self.tip_arc {
             // Chords of the tip's arc, each end compensated.
             let radius = arc.r0.max(arc.r1);
@@ -445,11 +489,18 @@ impl Mode for TcpMode {
         let vector_mode = state.modal.tcp_vector;
         // Under a plane the rotary axes have no words: they stay where G53.1 put them.
         let rotary = (!vector_mode && self.frame.is_none()).then_some(&end.q);
-        pass.write_tip_words(cx, &self.tips, &programmed_words, rotary, state, out);
+        match &self.kept {
+            Some(KeptCentre::Pole(_, _, Some(polar))) => {
+                self.write_polar(pass, cx, polar, &programmed_words, state, out);
+            }
+            _ => pass.write_tip_words(cx, &self.tips, &programmed_words, rotary, state, out),
+        }
         if vector_mode {
             self.write_vector(pass, cx, &last, state, out);
         }
-        if self.tip_arc.is_some() {
+        if let Some(kept) = &self.kept {
+            self.write_centre(pass, cx, kept, state, out);
+        } else if self.tip_arc.is_some() {
             // The arc's own line is the last straight piece.
             super::arcs::straighten(cx, out, !self.pieces.is_empty());
             state.straightened = true;
@@ -477,26 +528,26 @@ pub(super) fn round(x: f64, d: u8) -> f64 {
 }
 
 impl TcpMode {
-    /// The tip's arc of the block, in the modal plane, from the programmed start tip to
-    /// `end`.
+    /// The tip's arc of the block, in the modal plane, from the programmed start tip to the
+    /// end its words give (the programmed tip words, `state.tip_nominal`), and that end.
     fn tip_arc(
         &self,
         cx: &Cx<'_, '_>,
         state: &State,
         clockwise: bool,
-        end: Vector3<f64>,
-    ) -> Result<TipArc, Diagnostic> {
+    ) -> Result<(TipArc, Vector3<f64>), Diagnostic> {
         let col = cx
             .motion
             .arc_code
             .map_or_else(|| cx.first_col(), |i| cx.col(i));
         let refuse = |why: String| cx.refuse(col, format!("this arc cannot be compensated: {why}"));
-        // The tip components of the plane's two axes.
-        let Some((plane, centre_letters)) = plane_letters(state.modal.plane) else {
+        // The tip components of the plane's two axes and of the third.
+        let Some((plane, _)) = plane_letters(state.modal.plane) else {
             return Err(refuse("arcs in a U/V/W plane are not supported".into()));
         };
         let component = |letter: u8| usize::from(letter - b'X');
         let (a, b) = (component(plane[0]), component(plane[1]));
+        let c = component(plane_third(state.modal.plane));
         if state.modal.inverse_time && cx.word(b'F').is_none() {
             return Err(refuse(
                 "in inverse-time feed (G93) an arc needs its own F word".into(),
@@ -505,23 +556,33 @@ impl TcpMode {
         if cx.word(b'P').is_some() {
             return Err(refuse("a P word (several turns) is not supported".into()));
         }
-        let c = circle(
-            (self.tip0[a], self.tip0[b]),
-            (end[a], end[b]),
+        let at = |t: &Vector3<f64>| [t[a], t[b], t[c]];
+        let words = Vector3::from(state.tip_nominal);
+        let (e, circle) = plane_arc(
+            cx.tokens,
+            cx.motion,
+            &state.modal,
             clockwise,
-            centre_words(cx.tokens, cx.motion, centre_letters, &state.modal),
-            state.modal.arc_absolute,
+            at(&self.tip0),
+            at(&words),
         )
         .map_err(refuse)?;
-        Ok(TipArc {
-            a,
-            b,
-            centre: c.centre,
-            r0: c.r0,
-            r1: c.r1,
-            th0: c.th0,
-            sweep: c.sweep,
-        })
+        let mut end = words;
+        end[a] = e[0];
+        end[b] = e[1];
+        end[c] = e[2];
+        Ok((
+            TipArc {
+                a,
+                b,
+                centre: circle.centre,
+                r0: circle.r0,
+                r1: circle.r1,
+                th0: circle.th0,
+                sweep: circle.sweep,
+            },
+            end,
+        ))
     }
 
     /// The programmed tip (in the part frame) and nominal axis values at parameter `s` of
@@ -957,6 +1018,508 @@ impl TcpMode {
         }
         editor.insert_blocks(text);
     }
+}
+
+impl TcpMode {
+    /// An arc in a working plane kept as an arc: where the control's arc through the
+    /// written start and the compensated end, about the centre of the circle through them
+    /// and the compensated middle (a full circle: its thirds), with the third word linear
+    /// along it, keeps the real tip within the path tolerance of the nominal arc, the
+    /// centre as it will be written; `None` for straight pieces. Polar arcs (CP) and arcs
+    /// of more than a turn are not kept.
+    fn keep_plane_arc(
+        &self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        state: &mut State,
+        start: &End,
+        end: &End,
+        hold: u32,
+    ) -> Result<Option<KeptCentre>, Diagnostic> {
+        let (Some(arc), Some(frame)) = (self.tip_arc, self.frame) else {
+            return Ok(None);
+        };
+        if arc.sweep.abs() > TAU + 1e-9 {
+            return Ok(None);
+        }
+        let n = pass.kin.len();
+        let length = state.modal.length;
+        let tol = pass.options.path.unwrap_or_default();
+        let full = arc.sweep.abs() > TAU - 1e-9;
+        // The middle as solved (not rounded: with no errors it lies on the programmed
+        // circle, and the centre comes out as programmed).
+        let solved = |e: &End| {
+            e.solution.map(|sol| {
+                self.words(
+                    &pass
+                        .kin
+                        .pose(Model::Nominal, sol.values(), length)
+                        .0
+                        .p,
+                )
+            })
+        };
+        let (s1, s2) = if full {
+            (1.0 / 3.0, 2.0 / 3.0)
+        } else {
+            (0.5, 1.0)
+        };
+        let m1 = self.point(pass, cx, s1, hold, state)?;
+        let Some(m1) = solved(&m1) else {
+            return Ok(None);
+        };
+        // A TNC arc written as CP ends where its angle puts it, not at end words: it aims
+        // at the end as solved, not as end words would round it.
+        let polar = cx.motion.centre.is_some() && self.polar_form(pass, cx, state, start, end);
+        let aim = match solved(end) {
+            Some(e) if polar => e,
+            _ => end.tip,
+        };
+        let m2 = if full {
+            let m2 = self.point(pass, cx, s2, hold, state)?;
+            match solved(&m2) {
+                Some(m) => m,
+                None => return Ok(None),
+            }
+        } else {
+            aim
+        };
+        if end
+            .solution
+            .is_none_or(|sol| sol.position_residual > 1e-6)
+        {
+            return Ok(None);
+        }
+        let (a, b) = (arc.a, arc.b);
+        let plane = |t: &Vector3<f64>| (t[a], t[b]);
+        let Some(centre) = circle_centre([plane(&start.tip), plane(&m1), plane(&m2)]) else {
+            return Ok(None);
+        };
+        let inch = state.modal.inch;
+        let unit = if inch { INCH } else { 1.0 };
+        let centre_unit = Unit::inch(inch);
+        let [va, vb] = [self.tips[a], self.tips[b]];
+        let d_centre = |v: usize| pass.res_decimals(v, centre_unit);
+        let clockwise = arc.sweep < 0.0;
+        let (start_p, end_p) = (plane(&start.tip), plane(&aim));
+        // The centre words as written, and the centre the control takes from them.
+        let (kept, written_centre) = if let Some(pole) = cx.motion.centre {
+            // A TNC arc about its pole: a CC block before it, absolute, unless the
+            // control holds that pole already.
+            let held = match (state.pole_written, current_pole(state)) {
+                (Some((seq, w)), Some(now)) if seq == now => w,
+                _ => pole,
+            };
+            let d = [d_centre(va), d_centre(vb)];
+            let step = |k: usize| 10f64.powi(-i32::from(d[k]));
+            let fitted = [centre.0, centre.1];
+            let same = (0..2).all(|k| same_text(held[k] / unit, fitted[k] / unit, d[k]));
+            let value = if same {
+                held
+            } else {
+                // The pole as written: of the values within three digits of the fitted
+                // centre the one about which the control's arc ends nearest the end (a
+                // CP's end lies at the start's radius, at its angle rounded as written; a
+                // C's written end at a radius the start's should match), then the nearest.
+                let rounded = [0, 1].map(|k| round(fitted[k] / unit, d[k]));
+                let absolute = matches!(cx.motion.polar, Some((_, false)));
+                let miss = |c: [f64; 2]| {
+                    let r0 = (start_p.0 - c[0]).hypot(start_p.1 - c[1]);
+                    let r1 = (end_p.0 - c[0]).hypot(end_p.1 - c[1]);
+                    if !polar {
+                        return (r0 - r1).abs();
+                    }
+                    let th0 = (start_p.1 - c[1]).atan2(start_p.0 - c[0]);
+                    let th1 = (end_p.1 - c[1]).atan2(end_p.0 - c[0]);
+                    let sweep = th1 - th0 + TAU * ((arc.sweep - (th1 - th0)) / TAU).round();
+                    let theta = if absolute {
+                        round((th0 + sweep).to_degrees(), ANGLE_DECIMALS).to_radians()
+                    } else {
+                        th0 + round(sweep.to_degrees(), ANGLE_DECIMALS).to_radians()
+                    };
+                    (c[0] + r0 * theta.cos() - end_p.0).hypot(c[1] + r0 * theta.sin() - end_p.1)
+                };
+                let mut best = (f64::INFINITY, f64::INFINITY, [0.0; 2]);
+                for di in -3i32..=3 {
+                    for dj in -3i32..=3 {
+                        let c = [
+                            (rounded[0] + f64::from(di) * step(0)) * unit,
+                            (rounded[1] + f64::from(dj) * step(1)) * unit,
+                        ];
+                        let key = (miss(c), (c[0] - fitted[0]).hypot(c[1] - fitted[1]));
+                        if key.0 < best.0 - 1e-12 || (key.0 <= best.0 + 1e-12 && key.1 < best.1) {
+                            best = (key.0, key.1, c);
+                        }
+                    }
+                }
+                best.2
+            };
+            let mut words: Vec<(u8, String)> = (0..2)
+                .map(|k| {
+                    let mut text = String::new();
+                    write_fixed(value[k] / unit, d[k], &mut text);
+                    (pass.letter([va, vb][k]), text)
+                })
+                .collect();
+            words.sort_by_key(|(letter, _)| *letter);
+            (
+                KeptCentre::Pole((!same).then_some(words), value, None),
+                (value[0], value[1]),
+            )
+        } else if let Some(ri) = cx.motion.arc_words[3] {
+            if state.modal.dialect == crate::nc::Dialect::Heidenhain
+                && self.needs_third(pass, cx, state, start, end)
+            {
+                // A TNC CR whose end needs the third coordinate it does not give: a
+                // helix in Cartesian form, which not every TNC reads.
+                return Ok(None);
+            }
+            let (old, decimals, _) = cx.number(ri);
+            let radius = (start_p.0 - centre.0).hypot(start_p.1 - centre.1) / unit;
+            let d = decimals.max(d_centre(va));
+            let new = radius.copysign(old);
+            let mut text = String::new();
+            write_fixed(new, d, &mut text);
+            let Ok(r) = text.parse::<f64>() else {
+                return Ok(None);
+            };
+            let mut words = Vec::new();
+            if !same_text(old, new, d) {
+                words.push((Ok(ri), text));
+            }
+            let Ok(from_r) = circle(start_p, end_p, clockwise, Centre::Radius(r * unit), false)
+            else {
+                return Ok(None);
+            };
+            (KeptCentre::Words(words), from_r.centre)
+        } else {
+            let Some((_, centre_letters)) = plane_letters(state.modal.plane) else {
+                return Ok(None);
+            };
+            let origin = if state.modal.arc_absolute {
+                (0.0, 0.0)
+            } else {
+                start_p
+            };
+            let mut words = Vec::new();
+            let mut written = [0.0; 2];
+            for k in 0..2 {
+                let letter = centre_letters[k];
+                let Some(slot) = b"IJK".iter().position(|&l| l == letter) else {
+                    return Ok(None);
+                };
+                let index = cx.motion.arc_words[slot];
+                let offset = ([centre.0, centre.1][k] - [origin.0, origin.1][k]) / unit;
+                let res = d_centre([va, vb][k]);
+                let (old, d) = match index.map(|i| cx.number(i)) {
+                    Some((old, decimals, _)) => (Some(old), decimals.max(res)),
+                    None => (None, res),
+                };
+                let mut text = String::new();
+                write_fixed(offset, d, &mut text);
+                let Ok(x) = text.parse::<f64>() else {
+                    return Ok(None);
+                };
+                written[k] = x * unit;
+                match (index, old) {
+                    (Some(i), Some(old)) if !same_text(old, offset, d) => {
+                        words.push((Ok(i), text))
+                    }
+                    (None, _) if !same_text(0.0, offset, d) => words.push((Err(letter), text)),
+                    _ => {}
+                }
+            }
+            (
+                KeptCentre::Words(words),
+                (origin.0 + written[0], origin.1 + written[1]),
+            )
+        };
+        // The arc the control runs: from the written start to the written end about the
+        // written centre, the way its direction turns (a polar arc: by its angle, to where
+        // that angle ends it).
+        let Ok(mut ctrl) = circle(
+            start_p,
+            end_p,
+            clockwise,
+            Centre::Offsets(Some(written_centre.0), Some(written_centre.1)),
+            true,
+        ) else {
+            return Ok(None);
+        };
+        let mut ctrl_end = end.tip;
+        let kept = match kept {
+            KeptCentre::Pole(words, value, _) if polar => {
+                // The sweep nearest the programmed one: whole turns are the angle's.
+                let sweep = ctrl.sweep + TAU * ((arc.sweep - ctrl.sweep) / TAU).round();
+                let absolute = matches!(cx.motion.polar, Some((_, false)));
+                let r0 = ctrl.r0;
+                let (angle, theta) = if absolute {
+                    let deg = round((ctrl.th0 + sweep).to_degrees(), ANGLE_DECIMALS);
+                    (format!("PA{deg:+.4}"), deg.to_radians())
+                } else {
+                    let deg = round(sweep.to_degrees(), ANGLE_DECIMALS);
+                    (format!("IPA{deg:+.4}"), ctrl.th0 + deg.to_radians())
+                };
+                ctrl_end[a] = written_centre.0 + r0 * theta.cos();
+                ctrl_end[b] = written_centre.1 + r0 * theta.sin();
+                let third = usize::from(plane_third(state.modal.plane) - b'X');
+                let vc = self.tips[third];
+                let given = cx.motion.axis_words[vc].is_some();
+                let mut lead = None;
+                if !given {
+                    let d = state.decimals[vc].max(pass.res_decimals(vc, Unit::inch(inch)));
+                    let rise = round((aim[third] - start.tip[third]) / unit, d);
+                    ctrl_end[third] = start.tip[third] + rise * unit;
+                    if cx.motion.lead.is_some() || !same_text(rise, 0.0, d) {
+                        let mut text = String::new();
+                        write_fixed(rise, d, &mut text);
+                        if !text.starts_with('-') {
+                            text.insert(0, '+');
+                        }
+                        lead = Some(format!("I{}{text}", plane_third(state.modal.plane) as char));
+                    }
+                }
+                ctrl = crate::program::arc::Circle {
+                    r1: r0,
+                    // IPA turns by itself; PA the way DR turns, at most a turn.
+                    sweep: if absolute {
+                        commanded_sweep(ctrl.th0, theta, clockwise)
+                    } else {
+                        theta - ctrl.th0
+                    },
+                    ..ctrl
+                };
+                KeptCentre::Pole(
+                    words,
+                    value,
+                    Some(Polar {
+                        angle,
+                        lead,
+                        end: ctrl_end,
+                    }),
+                )
+            }
+            other => other,
+        };
+        if (ctrl.sweep - arc.sweep).abs() > 0.1 {
+            return Ok(None);
+        }
+        // Where the written ends lie within their rounding of the same angle about the
+        // centre (a sweep near 0 or a full turn), which way round the control goes hangs on
+        // the last digit: not kept.
+        let half_unit = |d: u8| 0.5 * unit * 10f64.powi(-i32::from(d));
+        let rounding = [va, vb]
+            .iter()
+            .map(|&v| {
+                let d = state.decimals[v].max(pass.res_decimals(v, Unit::inch(inch)));
+                half_unit(d) + half_unit(d_centre(v))
+            })
+            .fold(0.0f64, f64::max)
+            * std::f64::consts::SQRT_2
+            * 2.0;
+        let margin = rounding / ctrl.r0.min(ctrl.r1).max(1e-9);
+        if !full && (ctrl.sweep.abs() <= margin || ctrl.sweep.abs() >= TAU - margin) {
+            return Ok(None);
+        }
+        // The control's arc against the nominal one, at the quarter points and between:
+        // the real tip's distance from the nominal arc (its closest point nearby).
+        let rotaries = start.ctrl;
+        let nominal_at = |s: f64| self.target_at(pass, s, state).p;
+        let samples = (0..32)
+            .map(|k| (k as f64 + 0.5) / 32.0)
+            .chain([0.25, 0.5, 0.75]);
+        for s in samples {
+            let th = ctrl.th0 + ctrl.sweep * s;
+            let r = ctrl.r0 + (ctrl.r1 - ctrl.r0) * s;
+            let mut w = start.tip + (ctrl_end - start.tip) * s;
+            w[a] = ctrl.centre.0 + r * th.cos();
+            w[b] = ctrl.centre.1 + r * th.sin();
+            let Some(q) = pass.plane_axes(&frame, &w, &rotaries, length) else {
+                return Ok(None);
+            };
+            let (actual, _) = pass.kin.pose(Model::Actual, &q[..n], length);
+            let mut closest = s;
+            let mut distance = f64::INFINITY;
+            for _ in 0..2 {
+                let h = 1e-4;
+                let p = nominal_at(closest);
+                let (lo, hi) = ((closest - h).max(0.0), (closest + h).min(1.0));
+                let tangent = (nominal_at(hi) - nominal_at(lo)) / (hi - lo).max(f64::EPSILON);
+                let step = (actual.p - p).dot(&tangent) / tangent.norm_squared().max(1e-300);
+                closest = (closest + step).clamp(0.0, 1.0);
+                distance = (nominal_at(closest) - actual.p).norm();
+            }
+            if distance.is_nan() || distance > tol.position {
+                return Ok(None);
+            }
+        }
+        Ok(Some(kept))
+    }
+
+    /// Whether a TNC arc's written end needs the coordinate along the axis perpendicular
+    /// to its plane that the block does not give (the compensated end's differs from the
+    /// written start's).
+    fn needs_third(
+        &self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        state: &State,
+        start: &End,
+        end: &End,
+    ) -> bool {
+        let third = usize::from(plane_third(state.modal.plane) - b'X');
+        let v = self.tips[third];
+        if cx.motion.axis_words[v].is_some() || cx.motion.lead.is_some() {
+            return false;
+        }
+        let inch = state.modal.inch;
+        let unit = if inch { INCH } else { 1.0 };
+        let d = state.decimals[v].max(pass.res_decimals(v, Unit::inch(inch)));
+        !same_text(start.tip[third] / unit, end.tip[third] / unit, d)
+    }
+
+    /// Whether a kept TNC arc about its pole is written as `CP`: a CP of the program, or
+    /// a C whose end needs the third coordinate (a helix: every TNC reads it in polar
+    /// form, `CP IPA… IZ…`; the Cartesian form only some).
+    fn polar_form(
+        &self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        state: &State,
+        start: &End,
+        end: &End,
+    ) -> bool {
+        cx.motion.polar.is_some() || self.needs_third(pass, cx, state, start, end)
+    }
+
+    /// Write a kept TNC arc as `CP`: its angle, its helix's height (IZ, or the third
+    /// axis's word the block gives), and no end words in the plane (the angle ends it).
+    fn write_polar(
+        &self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        polar: &Polar,
+        programmed_words: &Vector3<f64>,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) {
+        let inch = state.modal.inch;
+        let unit = if inch { INCH } else { 1.0 };
+        let third = usize::from(plane_third(state.modal.plane) - b'X');
+        let mut editor = cx.editor(out.edits);
+        let text = |i: usize| &cx.line.content[cx.tokens[i].span.clone()];
+        let other = |pred: &dyn Fn(&[u8]) -> bool| {
+            (0..cx.tokens.len())
+                .find(|&i| cx.tokens[i].kind == crate::nc::TokenKind::Other && pred(text(i)))
+        };
+        let direction = other(&|t| t.starts_with(b"DR"));
+        let angle = other(&|t| t.starts_with(b"IPA") || t.starts_with(b"PA"));
+        let lead = other(&|t| {
+            cx.motion.lead.is_some()
+                && t.len() > 2
+                && t[0] == b'I'
+                && t[1] == plane_third(state.modal.plane)
+        });
+        if let Some(k) = cx.motion.arc_code
+            && text(k) != b"CP"
+        {
+            editor.replace_token(k, b"CP");
+        }
+        let separator = editor.style().separator;
+        let mut put = |at: Option<usize>, new: &str, editor: &mut crate::nc::edit::Editor<'_>| {
+            match at {
+                Some(i) if text(i) != new.as_bytes() => {
+                    editor.replace_token(i, new.as_bytes());
+                    out.summary.words_changed += 1;
+                }
+                Some(_) => {}
+                None => {
+                    if let Some(dr) = direction {
+                        editor.insert_before_word(dr, &format!("{new}{separator}"));
+                        out.summary.words_added += 1;
+                    }
+                }
+            }
+        };
+        put(angle, &polar.angle, &mut editor);
+        if let Some(new) = &polar.lead {
+            put(lead, new, &mut editor);
+        }
+        for c in 0..3 {
+            let v = self.tips[c];
+            match cx.motion.axis_words[v] {
+                // The third axis's word of a CP: its end, absolute.
+                Some(i) if c == third => {
+                    let d = cx.number(i).1.max(pass.res_decimals(v, Unit::inch(inch)));
+                    state.decimals[v] = d;
+                    if editor.set_fixed(i, programmed_words[c] / unit, d) {
+                        out.summary.words_changed += 1;
+                    }
+                    state.tip_written[c] = round(programmed_words[c] / unit, d) * unit;
+                }
+                // A C's end in its plane: the angle gives it now.
+                Some(i) => {
+                    editor.remove_word(i);
+                    state.tip_written[c] = polar.end[c];
+                }
+                None => state.tip_written[c] = polar.end[c],
+            }
+        }
+    }
+
+    /// Write a kept arc's centre: its words, or the CC block before it.
+    fn write_centre(
+        &self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        kept: &KeptCentre,
+        state: &mut State,
+        out: &mut Out<'_>,
+    ) {
+        match kept {
+            KeptCentre::Words(words) => {
+                for (word, _) in words {
+                    match word {
+                        Ok(_) => out.summary.words_changed += 1,
+                        Err(_) => out.summary.words_added += 1,
+                    }
+                }
+                pass.centre_edits(cx, words, out);
+            }
+            KeptCentre::Pole(words, value, _) => {
+                if let Some(words) = words {
+                    let mut editor = cx.editor(out.edits);
+                    let style = editor.style();
+                    let mut block =
+                        heidenhain::inserted_start(cx.line.content, cx.tokens, state.renumber, 0);
+                    if let Some(keyword) = block.last_mut() {
+                        *keyword = "CC".into();
+                    }
+                    for (letter, number) in words {
+                        block.push(style.word(*letter, number));
+                    }
+                    let ending = Editor::ending(cx.line.ending);
+                    editor.insert_blocks(format!("{}{ending}", block.join(style.separator)));
+                    out.summary.words_added += words.len();
+                }
+                if let Some(seq) = current_pole(state) {
+                    state.pole_written = Some((seq, *value));
+                }
+            }
+        }
+        if cx.motion.arc_code.is_none() && state.straightened {
+            // Modal in the original, but the output's last motion code is the G1 of a
+            // straightened arc: the block says G2/G3 itself.
+            super::arcs::restore_arc_code(cx, out, self.arc == Some(true));
+        }
+        state.straightened = false;
+        out.summary.note_arc_kept();
+    }
+}
+
+/// Which CC of the program gives the TNC pole in force (see [`heidenhain::Pole`]).
+fn current_pole(state: &State) -> Option<u64> {
+    state.modal.tnc.as_ref().and_then(|t| t.pole).map(|p| p.seq)
 }
 
 impl Pass<'_> {

@@ -98,7 +98,7 @@ impl ArcPath {
 
 /// The signed sweep G2 (`clockwise`) or G3 commands from angle `th0` to `th1`: in
 /// [-2π, 0) for G2, (0, 2π] for G3; equal angles make a full circle.
-fn commanded_sweep(th0: f64, th1: f64, clockwise: bool) -> f64 {
+pub fn commanded_sweep(th0: f64, th1: f64, clockwise: bool) -> f64 {
     if clockwise {
         let s = -(th0 - th1).rem_euclid(TAU);
         if s == 0.0 { -TAU } else { s }
@@ -117,6 +117,72 @@ pub fn plane_letters(plane: u8) -> Option<([u8; 2], [u8; 2])> {
         2 => Some(([b'Y', b'Z'], [b'J', b'K'])),
         _ => None,
     }
+}
+
+/// The letter of the axis perpendicular to modal plane 0 (G17), 1 (G18), 2 (G19): a helix's.
+pub fn plane_third(plane: u8) -> u8 {
+    match plane {
+        0 => b'Z',
+        1 => b'Y',
+        _ => b'X',
+    }
+}
+
+/// An arc block's end and circle, from `start` to the end its words give (`end`: the
+/// start where a word is missing), each as the plane's two coordinates and the third
+/// (mm): the centre by I/J/K or R, or a TNC arc's pole (CC); a TNC polar arc's end on
+/// its circle at its angle (PA, or IPA from the start, which is also its sweep, turns
+/// included), and a helix's height from the start (IZ).
+pub fn plane_arc(
+    tokens: &[Token],
+    motion: &BlockMotion,
+    modal: &Modal,
+    clockwise: bool,
+    start: [f64; 3],
+    mut end: [f64; 3],
+) -> Result<([f64; 3], Circle), String> {
+    let (centre, absolute) = match motion.centre {
+        // A TNC arc about its CC.
+        Some([a, b]) => (Centre::Offsets(Some(a), Some(b)), true),
+        None => {
+            let Some((_, centre_letters)) = plane_letters(modal.plane) else {
+                return Err("arcs in a U/V/W plane (G17.1, G18.1, G19.1) are not supported".into());
+            };
+            (
+                centre_words(tokens, motion, centre_letters, modal),
+                modal.arc_absolute,
+            )
+        }
+    };
+    let mut turned = None;
+    if let (Some((angle, incremental)), Some([ca, cb])) = (motion.polar, motion.centre) {
+        // A TNC polar arc: the end on the circle through the start about CC.
+        let (da, db) = (start[0] - ca, start[1] - cb);
+        let r = da.hypot(db);
+        let th = if incremental {
+            turned = Some(angle.to_radians());
+            db.atan2(da) + angle.to_radians()
+        } else {
+            angle.to_radians()
+        };
+        end[0] = ca + r * th.cos();
+        end[1] = cb + r * th.sin();
+    }
+    if let Some(lead) = motion.lead {
+        end[2] = start[2] + lead;
+    }
+    let mut c = circle(
+        (start[0], start[1]),
+        (end[0], end[1]),
+        clockwise,
+        centre,
+        absolute,
+    )?;
+    if let Some(sweep) = turned {
+        // IPA is the sweep itself, whole turns and all.
+        c.sweep = sweep;
+    }
+    Ok((end, c))
 }
 
 /// A circle in a plane from `(a0, b0)` to `(a1, b1)`: centre, radii at both ends, start
@@ -250,7 +316,7 @@ pub fn arc_path(
             "absolute arc centres (G90.1) in diameter mode (G7) are not supported (program the centre incrementally, G91.1)".into(),
         );
     }
-    let Some((plane, centre_letters)) = plane_letters(modal.plane) else {
+    let Some((plane, _)) = plane_letters(modal.plane) else {
         return Err("arcs in a U/V/W plane (G17.1, G18.1, G19.1) are not supported".into());
     };
     let (Some(va), Some(vb)) = (axes.linear_of(plane[0]), axes.linear_of(plane[1])) else {
@@ -271,33 +337,14 @@ pub fn arc_path(
             *x = axes.unit(v, modal).to_mm(value);
         }
     }
-    let (centre, absolute) = match motion.centre {
-        // A TNC arc about its CC.
-        Some([a, b]) => (Centre::Offsets(Some(a), Some(b)), true),
-        None => (
-            centre_words(tokens, motion, centre_letters, modal),
-            modal.arc_absolute,
-        ),
-    };
-    if let (Some((angle, incremental)), Some([ca, cb])) = (motion.polar, motion.centre) {
-        // A TNC polar arc: the end on the circle through the start about CC.
-        let (da, db) = (start[va] - ca, start[vb] - cb);
-        let r = da.hypot(db);
-        let th = if incremental {
-            db.atan2(da) + angle.to_radians()
-        } else {
-            angle.to_radians()
-        };
-        end[va] = ca + r * th.cos();
-        end[vb] = cb + r * th.sin();
+    let third = axes.linear_of(plane_third(modal.plane));
+    let at = |q: &[f64; MAX_AXES]| [q[va], q[vb], third.map_or(0.0, |v| q[v])];
+    let (e, c) = plane_arc(tokens, motion, modal, clockwise, at(&start), at(&end))?;
+    end[va] = e[0];
+    end[vb] = e[1];
+    if let Some(v) = third {
+        end[v] = e[2];
     }
-    let c = circle(
-        (start[va], start[vb]),
-        (end[va], end[vb]),
-        clockwise,
-        centre,
-        absolute,
-    )?;
     Ok(ArcPath {
         va,
         vb,

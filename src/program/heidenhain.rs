@@ -53,10 +53,10 @@ pub struct Tnc {
     pub defining: Option<CycleDef>,
     /// Q120–Q122 hold the angles of the PLANE in force, set with STAY and not yet used.
     pub plane_angles: bool,
-    /// The circle centre (pole) of the last CC: its plane (0 X-Y, 1 Z-X, 2 Y-Z, as
-    /// [`super::Modal::plane`]) and its two coordinates in that plane's order (program
-    /// units).
-    pub pole: Option<(u8, [f64; 2])>,
+    /// The circle centre (pole) of the last CC.
+    pub pole: Option<Pole>,
+    /// The CC blocks read so far.
+    pub poles: u64,
     /// The program's labels.
     pub labels: Arc<Labels>,
     /// How deep in label calls the block being read is.
@@ -67,6 +67,35 @@ pub struct Tnc {
     pub end: Option<(usize, bool)>,
     /// The line being read.
     pub line: usize,
+}
+
+/// The circle centre (pole) of a `CC` block.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pole {
+    /// Its plane (0 X-Y, 1 Z-X, 2 Y-Z, as [`super::Modal::plane`]).
+    pub plane: u8,
+    /// Its two coordinates in that plane's order (program units).
+    pub centre: [f64; 2],
+    /// The frame its coordinates were given in: the working plane's origin and axes, or
+    /// the datum shift outside a plane.
+    pub frame: [f64; 12],
+    /// Which CC of the program set it (counted from 1): a pole set again to the same
+    /// coordinates is another.
+    pub seq: u64,
+}
+
+/// The frame a TNC block's coordinates are given in: the working plane in force (its
+/// origin and axes), or outside one the datum shift of CYCL DEF 7.
+fn frame_of(modal: &Modal, tnc: &Tnc) -> [f64; 12] {
+    let mut key = [0.0; 12];
+    match &modal.working_plane {
+        Some(plane) => {
+            key[..3].copy_from_slice(plane.origin.as_slice());
+            key[3..].copy_from_slice(plane.rotation.matrix().as_slice());
+        }
+        None => key[..3].copy_from_slice(&tnc.datum),
+    }
+    key
 }
 
 /// A cycle definition: its number and the Q parameters of its continued lines.
@@ -631,8 +660,7 @@ impl Reader<'_> {
                 }
             }
         }
-        let _ = modal;
-        tnc.pole = Some(match xyz {
+        let (plane, centre) = match xyz {
             [Some(x), Some(y), None] => (0, [x, y]),
             [Some(x), None, Some(z)] => (1, [z, x]),
             [None, Some(y), Some(z)] => (2, [y, z]),
@@ -642,11 +670,21 @@ impl Reader<'_> {
                     "CC needs the centre's two coordinates in the plane of the arc (X and Y, Z and X, or Y and Z)".into(),
                 ));
             }
+        };
+        tnc.poles += 1;
+        tnc.pole = Some(Pole {
+            plane,
+            centre,
+            frame: frame_of(modal, tnc),
+            seq: tnc.poles,
         });
         Ok(())
     }
 
-    /// `C X… Y… DR±` (about the pole), `CR X… Y… R± DR±`, `CP PA|IPA… DR±` (about the pole).
+    /// `C X… Y… DR±` (about the pole), `CR X… Y… R± DR±`, `CP PA|IPA… DR±` (about the
+    /// pole). The coordinate along the axis perpendicular to the arc's plane (`Z` for a
+    /// pole in X-Y, absolute, or `IZ` in CP, from the start) makes a helix. Under a tilted
+    /// working plane the words, the pole's among them, are in the plane's frame.
     #[allow(clippy::too_many_arguments)]
     fn arc(
         &self,
@@ -661,18 +699,26 @@ impl Reader<'_> {
         let kind = text(content, &tokens[sig[0]]);
         let col0 = tokens[sig[0]].span.start;
         let axes = &self.chains[modal.chain];
-        if modal.tcp || modal.working_plane.is_some() {
+        if modal.tcp {
             return Err(at(
                 col0,
                 format!(
-                    "{kind} arcs under a tilted working plane or tool-centre-point control are not compensated in TNC programs (expected L moves there)"
+                    "{kind} arcs under tool-centre-point control (M128, FUNCTION TCPM) are not compensated in TNC programs (expected L moves there)"
                 ),
             ));
         }
         let (plane, centre) = match kind {
             "CR" => (0, None),
             _ => match tnc.pole {
-                Some((plane, c)) => (plane, Some(c)),
+                Some(pole) if pole.frame != frame_of(modal, tnc) => {
+                    return Err(at(
+                        col0,
+                        format!(
+                            "{kind} runs about the circle centre of the last CC, which was given in another frame (the working plane or datum shift has changed since): where the control puts it is not followed (expected CC again after PLANE or CYCL DEF 7)"
+                        ),
+                    ));
+                }
+                Some(pole) => (pole.plane, Some(pole.centre)),
                 None => {
                     return Err(at(
                         col0,
@@ -683,10 +729,10 @@ impl Reader<'_> {
                 }
             },
         };
-        let letters = match plane {
-            0 => [b'X', b'Y'],
-            1 => [b'Z', b'X'],
-            _ => [b'Y', b'Z'],
+        let (letters, third) = match plane {
+            0 => ([b'X', b'Y'], b'Z'),
+            1 => ([b'Z', b'X'], b'Y'),
+            _ => ([b'Y', b'Z'], b'X'),
         };
         let mut clockwise = None;
         let mut words = LWords::default();
@@ -723,7 +769,9 @@ impl Reader<'_> {
                         ));
                     }
                 }
-                TokenKind::Word(w) if letters.contains(&w.letter) && kind != "CP" => {
+                TokenKind::Word(w)
+                    if (letters.contains(&w.letter) && kind != "CP") || w.letter == third =>
+                {
                     let Some(v) = axes.linear_of(w.letter) else {
                         return Err(at(
                             t.span.start,
@@ -741,13 +789,30 @@ impl Reader<'_> {
                             ));
                         }
                     }
+                    if out.axis_words[v].is_some() || out.lead.is_some() {
+                        return Err(at(
+                            t.span.start,
+                            format!("`{raw}`: the arc's {} is given twice", w.letter as char),
+                        ));
+                    }
                     out.axis_words[v] = Some(i);
                 }
                 TokenKind::Word(w) => {
+                    let expected = if kind == "CP" {
+                        format!(
+                            "PA or IPA, and {t} or I{t} for a helix",
+                            t = third as char
+                        )
+                    } else {
+                        format!(
+                            "the end's {} and {}, and {} for a helix",
+                            letters[0] as char, letters[1] as char, third as char
+                        )
+                    };
                     return Err(at(
                         t.span.start,
                         format!(
-                            "{} in a {kind} arc cannot be compensated (expected the end's {} and {}; helices are not followed)",
+                            "{} in a {kind} arc about a centre in {}-{} cannot be compensated (expected {expected})",
                             w.letter as char, letters[0] as char, letters[1] as char
                         ),
                     ));
@@ -767,19 +832,57 @@ impl Reader<'_> {
                     _ if kind == "CP" && (raw.starts_with("IPA") || raw.starts_with("PA")) => {
                         let incremental = raw.starts_with('I');
                         let value = &raw[if incremental { 3 } else { 2 }..];
-                        let Ok(angle) = value.parse::<f64>() else {
-                            return Err(at(
-                                t.span.start,
-                                format!("`{raw}`: expected the polar angle in degrees"),
-                            ));
+                        // An incremental angle (a helix's) may turn 15 times (±5400°, the
+                        // control's input range); an absolute one at most once.
+                        let limit = if incremental { 5400.0 } else { 360.0 };
+                        match value.parse::<f64>() {
+                            Ok(angle) if angle.is_finite() && angle.abs() <= limit => {
+                                out.polar = Some((angle, incremental));
+                            }
+                            _ => {
+                                return Err(at(
+                                    t.span.start,
+                                    format!(
+                                        "`{raw}`: expected the polar angle in degrees, a number within ±{limit}"
+                                    ),
+                                ));
+                            }
+                        }
+                    }
+                    _ if kind == "CP"
+                        && raw.len() > 2
+                        && raw.as_bytes()[0] == b'I'
+                        && raw.as_bytes()[1] == third =>
+                    {
+                        let value = raw[2..].parse::<f64>();
+                        let lead = match value {
+                            Ok(x) if x.is_finite() && x.abs() <= MAX_WORD => x,
+                            _ => {
+                                return Err(at(
+                                    t.span.start,
+                                    format!(
+                                        "`{raw}`: expected the helix's height along {} as a number",
+                                        third as char
+                                    ),
+                                ));
+                            }
                         };
-                        if !angle.is_finite() || angle.abs() > 5000.0 {
+                        if axes.linear_of(third).is_none() {
                             return Err(at(
                                 t.span.start,
-                                format!("`{raw}`: expected the polar angle in degrees"),
+                                format!("{} is not an axis of this machine", third as char),
                             ));
                         }
-                        out.polar = Some((angle, incremental));
+                        let given = axes
+                            .linear_of(third)
+                            .is_some_and(|v| out.axis_words[v].is_some());
+                        if given || out.lead.is_some() {
+                            return Err(at(
+                                t.span.start,
+                                format!("`{raw}`: the arc's {} is given twice", third as char),
+                            ));
+                        }
+                        out.lead = Some(if modal.inch { lead * super::INCH } else { lead });
                     }
                     _ => {
                         return Err(at(
@@ -798,8 +901,21 @@ impl Reader<'_> {
                 format!("{kind} needs its direction: DR+ (counter-clockwise) or DR- (clockwise)"),
             ));
         };
-        if kind == "CP" && out.polar.is_none() {
-            return Err(at(col0, "CP needs its polar angle (PA or IPA)".into()));
+        match out.polar {
+            None if kind == "CP" => {
+                return Err(at(col0, "CP needs its polar angle (PA or IPA)".into()));
+            }
+            // An incremental angle turns the way its sign says; DR must agree.
+            Some((angle, true)) if angle == 0.0 || (angle < 0.0) != clockwise => {
+                return Err(at(
+                    col0,
+                    format!(
+                        "CP with IPA{angle:+} and DR{}: expected an incremental polar angle other than 0 whose sign is the direction's (IPA+ with DR+, IPA- with DR-)",
+                        if clockwise { '-' } else { '+' }
+                    ),
+                ));
+            }
+            _ => {}
         }
         if kind == "CR" && out.arc_words[3].is_none() {
             return Err(at(col0, "CR needs its radius R".into()));
@@ -1922,13 +2038,18 @@ pub fn number_of(content: &[u8], tokens: &[Token]) -> Option<u64> {
         .ok()
 }
 
-/// The words a block inserted before an L block repeats: its radius compensation (R0).
+/// The words a block inserted before an L block repeats: its radius compensation (R0;
+/// not a CR arc's radius).
 pub fn carried_words(tokens: &[Token]) -> impl Iterator<Item = usize> + '_ {
     tokens
         .iter()
         .enumerate()
         .filter_map(|(i, t)| match &t.kind {
-            TokenKind::Word(w) if w.letter == b'R' => Some(i),
+            TokenKind::Word(w)
+                if w.letter == b'R' && matches!(w.value, Value::Number { value, .. } if value == 0.0) =>
+            {
+                Some(i)
+            }
             _ => None,
         })
 }

@@ -79,6 +79,9 @@ pub struct BlockMotion {
     pub centre: Option<[f64; 2]>,
     /// A TNC polar arc (CP): its angle (degrees), incremental (IPA) or absolute (PA).
     pub polar: Option<(f64, bool)>,
+    /// A TNC helix given incrementally (`CP IPA… IZ…`): the move along the axis
+    /// perpendicular to the arc's plane (mm), from where the arc starts.
+    pub lead: Option<f64>,
 }
 
 impl Default for BlockMotion {
@@ -94,6 +97,7 @@ impl Default for BlockMotion {
             cycle_col: None,
             centre: None,
             polar: None,
+            lead: None,
         }
     }
 }
