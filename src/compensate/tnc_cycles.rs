@@ -529,7 +529,7 @@ impl TncCycleMode {
             return Err(Self::refuse(
                 cx,
                 format!(
-                    "the motion of {} around the hole's axis cannot be bounded here (the nominal machine cannot reach its cylinder with the rotary axes where they stand, or the error model gives no bound)",
+                    "the motion of {} around the hole's axis cannot be bounded here (the nominal machine cannot reach its cylinder with the rotary axes where they stand, or the error model gives no bound; expected its path programmed as L moves)",
                     self.around
                 ),
             ));
@@ -538,14 +538,15 @@ impl TncCycleMode {
             return Err(Self::refuse(
                 cx,
                 format!(
-                    "the motion of {} around the hole's axis can add up to {:.2} µm (the error field's change over its radius of {:.4} mm) to the {:.2} µm the tool is off the axis at the set-up clearance: {:.2} µm, more than {:.2} µm (the tolerance of {:.2} µm and what the words' rounding to the machine's resolution can add)",
+                    "the motion of {} around the hole's axis can add up to {:.2} µm (the error field's change over its radius of {:.4} mm) to the {:.2} µm the tool is off the axis at the set-up clearance: {:.2} µm, more than {:.2} µm (the tolerance of {:.2} µm and what the words' rounding to the machine's resolution can add; expected its path programmed as L moves, which nccomp compensates, or a tolerance of {:.4} mm or more)",
                     self.around,
                     bound * 1e3,
                     self.radius,
                     off * 1e3,
                     (off + bound) * 1e3,
                     limit * 1e3,
-                    tolerance * 1e3
+                    tolerance * 1e3,
+                    (off + bound - limit + tolerance + 5e-5).max(tolerance)
                 ),
             ));
         }

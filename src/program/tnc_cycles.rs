@@ -172,14 +172,14 @@ pub fn reach(def: &CycleDef, inch: bool) -> Result<Reach, String> {
             )
         }
         204 => {
-            return Err("cycle 204 (back boring) goes through the hole off its axis and cuts from below the part, at a height given by the tool's edge (not followed)".into());
+            return Err("cycle 204 (back boring) goes through the hole off its axis and cuts from below the part, at a height given by the tool's edge, which nccomp does not follow (expected the path programmed as L moves)".into());
         }
         254 => {
-            return Err("cycle 254 (circular slot) lies about the centre its definition gives (Q216, Q217), not about the call's X, Y (not followed)".into());
+            return Err("cycle 254 (circular slot) lies about the centre its definition gives (Q216, Q217), not about the call's X, Y, which nccomp does not follow (expected the path programmed as L moves)".into());
         }
         256 | 257 | 267 => {
             return Err(format!(
-                "cycle {number} ({}) moves the tool around the outside of its shape, at a distance given by the tool's radius in the tool table, which nccomp does not know",
+                "cycle {number} ({}) moves the tool around the outside of its shape, at a distance given by the tool's radius in the tool table, which nccomp does not know (expected the path programmed as L moves)",
                 match number {
                     256 => "rectangular stud",
                     257 => "circular stud",
@@ -189,7 +189,7 @@ pub fn reach(def: &CycleDef, inch: bool) -> Result<Reach, String> {
         }
         n => {
             return Err(format!(
-                "cycle {n} is not a machining cycle nccomp follows (expected 200–203, 205–209, 240, 241, 251–253, 262–265)"
+                "cycle {n} is not a machining cycle nccomp follows (expected 200–203, 205–209, 240, 241, 251–253, 262–265, or the path programmed as L moves)"
             ));
         }
     };
