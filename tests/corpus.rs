@@ -247,12 +247,7 @@ fn the_heidenhain_cam_programs_compensate_with_consecutive_block_numbers() {
         ("hm_dmu85_W5246NS01007B10.h", "dmu85_ac", "dmu85_ac", 2),
         // CC/C arcs in a tilted working plane (hyperMILL's identity plane), kept as arcs
         // with a pole of their own where the compensated end needs one.
-        (
-            "hm_dmu85_W5246NS01007B11.h",
-            "dmu85_ac_b11",
-            "dmu85_ac",
-            1,
-        ),
+        ("hm_dmu85_W5246NS01007B11.h", "dmu85_ac_b11", "dmu85_ac", 1),
         // CP helices (IPA, IZ) and C arcs in a plane tilted to the horizontal.
         (
             "hm_trimill_W5269NS01002A16.h",

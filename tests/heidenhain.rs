@@ -662,7 +662,9 @@ impl<'s> Control<'s> {
                 _ if w.starts_with("IPA") => polar = Some((w[3..].parse::<f64>().unwrap(), true)),
                 _ if w.starts_with("PA") => polar = Some((w[2..].parse::<f64>().unwrap(), false)),
                 _ if w.starts_with("IZ") => lead = Some(w[2..].parse::<f64>().unwrap()),
-                _ if w.starts_with('R') && kind == "CR" => radius = Some(w[1..].parse::<f64>().unwrap()),
+                _ if w.starts_with('R') && kind == "CR" => {
+                    radius = Some(w[1..].parse::<f64>().unwrap())
+                }
                 _ => {
                     let (c, value) = letter(w);
                     let k = "XYZ".find(c).unwrap_or_else(|| panic!("`{w}` in an arc"));
@@ -1860,7 +1862,9 @@ fn arcs_in_tilted_planes_on_the_ac_trunnion_meet_the_contract() {
     // A C whose compensated end needs Z is written as a polar helix, which every TNC
     // reads; a C that gives its Z stays a C.
     assert!(
-        written.lines().any(|l| l.contains(" CP IPA") && l.contains(" IZ")),
+        written
+            .lines()
+            .any(|l| l.contains(" CP IPA") && l.contains(" IZ")),
         "{written}"
     );
     // The evaluation sees what the control makes of a kept arc's pole: the pole nccomp

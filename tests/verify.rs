@@ -223,9 +223,24 @@ fn verify_passes_on_outputs_and_finds_a_hand_broken_word_in_each_dialect() {
         // Arcs in tilted planes in each dialect: a kept arc's centre moved (its end
         // kept), a kept TNC arc's end, a piece of a helix replaced by pieces (moved
         // across the helix: along it a piece's end is still on the path).
-        ("ac_trunnion", "fixtures/ac_trunnion_plane_arcs.nc", "N140 G3", 'J'),
-        ("ac_trunnion", "fixtures/tnc_ac_trunnion_arcs.h", " C X", 'Y'),
-        ("ac_trunnion", "fixtures/tnc_ac_trunnion_arcs.h", "46 L X", 'X'),
+        (
+            "ac_trunnion",
+            "fixtures/ac_trunnion_plane_arcs.nc",
+            "N140 G3",
+            'J',
+        ),
+        (
+            "ac_trunnion",
+            "fixtures/tnc_ac_trunnion_arcs.h",
+            " C X",
+            'Y',
+        ),
+        (
+            "ac_trunnion",
+            "fixtures/tnc_ac_trunnion_arcs.h",
+            "46 L X",
+            'X',
+        ),
         (
             "ac_trunnion",
             "fixtures/840d_ac_trunnion_swivel_arcs.mpf",

@@ -246,7 +246,10 @@ impl Arc {
             .map(|j| j as f64 / GRID as f64)
             .min_by(|&a, &b| at(a).total_cmp(&at(b)))
             .unwrap();
-        let (mut lo, mut hi) = ((best - 1.0 / GRID as f64).max(0.0), (best + 1.0 / GRID as f64).min(1.0));
+        let (mut lo, mut hi) = (
+            (best - 1.0 / GRID as f64).max(0.0),
+            (best + 1.0 / GRID as f64).min(1.0),
+        );
         let g = (5f64.sqrt() - 1.0) / 2.0;
         for _ in 0..60 {
             let (x, y) = (hi - g * (hi - lo), lo + g * (hi - lo));
@@ -416,7 +419,11 @@ fn run(setup: &Setup, program: &str, rule: PlaneSolution) -> Vec<Event> {
                                 let d = (w - start).xy();
                                 let left = nalgebra::Vector2::new(-d.y, d.x).normalize();
                                 let h = (radius * radius - d.norm_squared() / 4.0).max(0.0).sqrt();
-                                let side = if clockwise == (radius > 0.0) { -1.0 } else { 1.0 };
+                                let side = if clockwise == (radius > 0.0) {
+                                    -1.0
+                                } else {
+                                    1.0
+                                };
                                 let c = (start.xy() + w.xy()) / 2.0 + left * (side * h);
                                 [c.x, c.y]
                             }
@@ -749,7 +756,11 @@ fn arcs_in_tilted_planes_on_the_ac_trunnion_stay_on_their_arcs() {
         })
         .collect();
     let (_, path) = evaluate(&setup, &program, &(broken.join("\n") + "\n"), rule);
-    assert!(path > 1.5e-3, "a centre 10 µm off strays {:.3} µm", path * 1e3);
+    assert!(
+        path > 1.5e-3,
+        "a centre 10 µm off strays {:.3} µm",
+        path * 1e3
+    );
 }
 
 #[test]

@@ -32,9 +32,7 @@ use crate::kinematics::{MAX_AXES, Model, Pose, Solution, SolveOptions, angle_bet
 use crate::model::AxisKind;
 use crate::nc::edit::Editor;
 use crate::nc::number::{decimals_for, same_text, write_fixed};
-use crate::program::arc::{
-    Centre, circle, commanded_sweep, plane_arc, plane_letters, plane_third,
-};
+use crate::program::arc::{Centre, circle, commanded_sweep, plane_arc, plane_letters, plane_third};
 use crate::program::exact::{Position, Unit};
 use crate::program::{WorkingPlane, gcode, heidenhain};
 use nalgebra::Vector3;
@@ -1049,15 +1047,8 @@ impl TcpMode {
         // The middle as solved (not rounded: with no errors it lies on the programmed
         // circle, and the centre comes out as programmed).
         let solved = |e: &End| {
-            e.solution.map(|sol| {
-                self.words(
-                    &pass
-                        .kin
-                        .pose(Model::Nominal, sol.values(), length)
-                        .0
-                        .p,
-                )
-            })
+            e.solution
+                .map(|sol| self.words(&pass.kin.pose(Model::Nominal, sol.values(), length).0.p))
         };
         let (s1, s2) = if full {
             (1.0 / 3.0, 2.0 / 3.0)
@@ -1084,10 +1075,7 @@ impl TcpMode {
         } else {
             aim
         };
-        if end
-            .solution
-            .is_none_or(|sol| sol.position_residual > 1e-6)
-        {
+        if end.solution.is_none_or(|sol| sol.position_residual > 1e-6) {
             return Ok(None);
         }
         let (a, b) = (arc.a, arc.b);
@@ -1222,9 +1210,7 @@ impl TcpMode {
                 };
                 written[k] = x * unit;
                 match (index, old) {
-                    (Some(i), Some(old)) if !same_text(old, offset, d) => {
-                        words.push((Ok(i), text))
-                    }
+                    (Some(i), Some(old)) if !same_text(old, offset, d) => words.push((Ok(i), text)),
                     (None, _) if !same_text(0.0, offset, d) => words.push((Err(letter), text)),
                     _ => {}
                 }
@@ -1426,8 +1412,8 @@ impl TcpMode {
             editor.replace_token(k, b"CP");
         }
         let separator = editor.style().separator;
-        let mut put = |at: Option<usize>, new: &str, editor: &mut crate::nc::edit::Editor<'_>| {
-            match at {
+        let mut put =
+            |at: Option<usize>, new: &str, editor: &mut crate::nc::edit::Editor<'_>| match at {
                 Some(i) if text(i) != new.as_bytes() => {
                     editor.replace_token(i, new.as_bytes());
                     out.summary.words_changed += 1;
@@ -1439,8 +1425,7 @@ impl TcpMode {
                         out.summary.words_added += 1;
                     }
                 }
-            }
-        };
+            };
         put(angle, &polar.angle, &mut editor);
         if let Some(new) = &polar.lead {
             put(lead, new, &mut editor);

@@ -799,10 +799,7 @@ impl Reader<'_> {
                 }
                 TokenKind::Word(w) => {
                     let expected = if kind == "CP" {
-                        format!(
-                            "PA or IPA, and {t} or I{t} for a helix",
-                            t = third as char
-                        )
+                        format!("PA or IPA, and {t} or I{t} for a helix", t = third as char)
                     } else {
                         format!(
                             "the end's {} and {}, and {} for a helix",
@@ -2046,7 +2043,8 @@ pub fn carried_words(tokens: &[Token]) -> impl Iterator<Item = usize> + '_ {
         .enumerate()
         .filter_map(|(i, t)| match &t.kind {
             TokenKind::Word(w)
-                if w.letter == b'R' && matches!(w.value, Value::Number { value, .. } if value == 0.0) =>
+                if w.letter == b'R'
+                    && matches!(w.value, Value::Number { value, .. } if value == 0.0) =>
             {
                 Some(i)
             }
