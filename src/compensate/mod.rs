@@ -9,6 +9,8 @@ mod arc_keep;
 mod arcs;
 mod axes;
 mod cycles;
+mod holes;
+mod lateral;
 mod lathe;
 mod pipeline;
 mod plane;
@@ -231,6 +233,15 @@ struct State {
     /// TURN, CYCLE800) with the linear axes standing: the tip moved by the nominal turn,
     /// not the corrected one, and a feed move from there would start off the pose it needs.
     turned_at_rest: bool,
+    /// The last block that moved called a cycle that moves the tool around the hole's
+    /// axis: where in the plane the control leaves the tool after it (at the centre, or
+    /// where its last pass ended) is the control's, so a feed move from there is refused.
+    around_end: Option<usize>,
+    /// A TNC cycle call one X, Y cannot serve whose motion along the axis nccomp knows:
+    /// the steps to write out as L moves instead (`stream::Run::line`).
+    hole_steps: Option<Vec<crate::program::tnc_cycles::HoleStep>>,
+    /// In a TNC program: the F word in force (`F500`, `FQ1`), the last one programmed.
+    feed: Option<String>,
 }
 
 /// The deviation the real machine has at the axis values `told` from the nominal pose at
@@ -535,6 +546,9 @@ impl<'m> Compensator<'m> {
         let mut state = State {
             moved_length: modal.length,
             turned_at_rest: false,
+            around_end: None,
+            hole_steps: None,
+            feed: None,
             modal,
             pass,
             parked: vec![None; self.machine.axes.len()],

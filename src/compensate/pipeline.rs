@@ -287,6 +287,15 @@ impl Pass<'_> {
             ));
         }
         state.turned_at_rest = false;
+        if feed && let Some(line) = state.around_end {
+            return Err(cx.refuse(
+                cx.first_col(),
+                format!(
+                    "a feed move right after the cycle called at line {line}, which moves the tool around the hole's axis: where the control leaves the tool in the plane after it is the control's, and the move would start where nccomp does not know (expected a rapid positioning move first)"
+                ),
+            ));
+        }
+        state.around_end = None;
         if matches!(cx.motion.kind, MoveKind::Machine | MoveKind::Home) {
             self.leave_coordinates(cx, state);
             return Ok(());

@@ -70,14 +70,14 @@ fn read_failure(input_name: &str, source: std::io::Error) -> Error {
 /// The pass over one program: its modal state, scratch buffers reused from line to line,
 /// and what it has found so far.
 pub(super) struct Run<'c, 'm> {
-    comp: &'c Compensator<'m>,
-    state: State,
+    pub(super) comp: &'c Compensator<'m>,
+    pub(super) state: State,
     tokens: Vec<Token>,
     /// The current block's motion (filled by the reader).
     motion: BlockMotion,
     edits: Vec<Edit>,
-    errors: Vec<Diagnostic>,
-    summary: Summary,
+    pub(super) errors: Vec<Diagnostic>,
+    pub(super) summary: Summary,
 }
 
 impl<'c, 'm> Run<'c, 'm> {
@@ -108,8 +108,28 @@ impl<'c, 'm> Run<'c, 'm> {
     }
 
     /// Compensate one line (of the file `path`) and append it to `out`. False when the
-    /// pass has refused as many blocks as it may and should stop.
+    /// pass has refused as many blocks as it may and should stop. A TNC hole that one X, Y
+    /// cannot serve over its depth, whose motion nccomp knows, is written out as L moves
+    /// instead ([`Run::write_out`]).
     pub(super) fn line(&mut self, line: &nc::Line<'_>, path: &str, out: &mut Vec<u8>) -> bool {
+        let snapshot = self.hole_snapshot(line);
+        let (errors, mark) = (self.errors.len(), out.len());
+        let go_on = self.line_once(line, path, out);
+        let steps = self.state.hole_steps.take();
+        if let (Some(saved), Some(steps)) = (snapshot, steps)
+            && self.errors.len() == errors + 1
+        {
+            // The call as it was refused goes; the state before it comes back.
+            let refused = self.errors.pop();
+            out.truncate(mark);
+            self.restore(saved);
+            return self.write_out(line, path, out, &steps, refused);
+        }
+        go_on
+    }
+
+    /// Compensate one line as it is (see [`Run::line`]).
+    pub(super) fn line_once(&mut self, line: &nc::Line<'_>, path: &str, out: &mut Vec<u8>) -> bool {
         let comp = self.comp;
         let state = &mut self.state;
         let summary = &mut self.summary;
@@ -144,6 +164,9 @@ impl<'c, 'm> Run<'c, 'm> {
         let tokens = &self.tokens;
         let edits = &mut self.edits;
         let blocks = summary.motion_blocks;
+        if state.modal.dialect == nc::Dialect::Heidenhain {
+            super::holes::follow_feed(line.content, tokens, state);
+        }
         let motion = &mut self.motion;
         let result = comp
             .read(line, tokens, state, summary, &at, motion)
@@ -438,7 +461,12 @@ fn block_number(text: &[u8]) -> Option<u64> {
 
 /// A diagnostic at byte `offset` of `line`'s content, as [`Diagnostic::at`] gives it for
 /// the whole file (a last line's stray `\r` is not shown).
-fn in_line(path: &str, line: &nc::Line<'_>, offset: usize, message: String) -> Diagnostic {
+pub(super) fn in_line(
+    path: &str,
+    line: &nc::Line<'_>,
+    offset: usize,
+    message: String,
+) -> Diagnostic {
     let offset = offset.min(line.content.len());
     let mut source_line = String::from_utf8_lossy(line.content).into_owned();
     if line.ending.is_empty() && source_line.ends_with('\r') {

@@ -94,6 +94,17 @@ pub struct Summary {
     /// the first.
     pub unsplit_moves: usize,
     pub first_unsplit: usize,
+    /// TNC cycle calls whose motion goes around the hole's axis (bore and thread milling,
+    /// pockets), compensated by their centre, axis and depth, and the largest bound on
+    /// what the tool can be off there: off the axis at the set-up clearance plus the
+    /// error field's change over the cycle's radius (mm).
+    pub cycles_around: usize,
+    pub around_bound: Extreme,
+    /// Holes written out as L moves (one X, Y could not serve their depth), the first,
+    /// and the blocks that took beyond the call's own.
+    pub holes_written_out: usize,
+    pub first_written_out: usize,
+    pub hole_blocks_added: usize,
     /// Arcs kept as arcs (compensated end and centre within the path tolerance), and the
     /// TNC poles (`CC` blocks) written before them for their centres.
     pub arcs_kept: usize,
@@ -242,6 +253,22 @@ impl Summary {
                 count(self.cycles_unrolled, "cycle block"),
                 self.first_unrolled,
                 count(self.holes_added, "block")
+            ));
+        }
+        if self.cycles_around > 0 {
+            out.push(format!(
+                "{} moving around the hole's axis (bore or thread milling, pockets) compensated by centre, axis and depth: within {:.3} µm of the nominal motion, the error field's change over their radius included (line {})",
+                count(self.cycles_around, "cycle call"),
+                self.around_bound.value * 1e3,
+                self.around_bound.line
+            ));
+        }
+        if self.holes_written_out > 0 {
+            out.push(format!(
+                "{} that one X, Y could not serve over the depth written out as L moves with the correction along the depth (first at line {}): {} added",
+                count(self.holes_written_out, "hole"),
+                self.first_written_out,
+                count(self.hole_blocks_added, "block")
             ));
         }
         if self.arcs_kept > 0 {

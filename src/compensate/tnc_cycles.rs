@@ -15,18 +15,21 @@
 //! above the surface coordinate the control holds
 //! ([`super::Pass::hole_axis_as_written`]).
 
-use super::Pass;
 use super::cycles::HoleAxis;
+use super::lateral::Cylinder;
+use super::pipeline::Out;
 use super::pipeline::{Block, Cx, Mode};
+use super::{Pass, State};
 use crate::diag::Diagnostic;
-use crate::kinematics::{MAX_AXES, Solution};
+use crate::kinematics::{MAX_AXES, Model, Solution};
 use crate::model::AxisKind;
 use crate::nc::Edit;
 use crate::nc::edit::Editor;
 use crate::nc::number::{same_text, write_fixed};
 use crate::program::WorkingPlane;
 use crate::program::exact::{Position, Unit};
-use crate::program::heidenhain::{self, CycleDef};
+use crate::program::heidenhain::{self, CycleDef, Param};
+use crate::program::tnc_cycles::{self as cycles, HoleStep, value_at};
 use nalgebra::Vector3;
 
 /// A TNC cycle call being compensated.
@@ -38,6 +41,11 @@ pub(super) struct TncCycleMode {
     /// The definition called, and its levels (mm): surface, bottom, clearance, end.
     def: Option<CycleDef>,
     levels: [f64; 4],
+    /// How far its motion reaches around the axis (mm): the radius, and below the bottom;
+    /// and what moves it there, for messages.
+    radius: f64,
+    below: f64,
+    around: String,
     /// The nominal values at the set-up clearance, and their solution.
     r_plane: [f64; MAX_AXES],
     r_solution: Option<Solution>,
@@ -101,12 +109,15 @@ impl Mode for TncCycleMode {
         let Some(def) = state.modal.called_cycle().cloned() else {
             return Err(Self::refuse(cx, "no cycle is defined".into()));
         };
-        let mut levels = heidenhain::drilling_levels(&def).map_err(|why| Self::refuse(cx, why))?;
+        let reach = cycles::reach(&def, state.modal.inch).map_err(|why| Self::refuse(cx, why))?;
+        let mut levels = reach.levels;
         if let Some(call) = def.siemens {
             levels[3] = call.end;
         }
         let zu = Unit::inch(state.modal.inch);
         self.levels = levels.map(|x| zu.to_mm(x));
+        (self.radius, self.below, self.around) =
+            (zu.to_mm(reach.radius), zu.to_mm(reach.below), reach.around);
         self.def = Some(def);
         let [_, bottom, clearance, _] = self.levels;
         let length = state.modal.length;
@@ -173,7 +184,13 @@ impl Mode for TncCycleMode {
             q_bottom[vz] = bottom;
             let mut r_plane = state.pos.nominal;
             r_plane[vz] = clearance;
-            (q_bottom, r_plane)
+            // The rotary axes stand where the last block left them (corrected, where it
+            // corrected the tool's direction): the hole's nominal points are reached with
+            // them there, so that the call writes no rotary word.
+            (
+                pass.standing(&q_bottom, &state.emitted, length),
+                pass.standing(&r_plane, &state.emitted, length),
+            )
         };
         pass.check_travel(&q_bottom, Self::col(cx), cx)?;
         pass.check_travel(&r_plane, Self::col(cx), cx)?;
@@ -221,6 +238,9 @@ impl Mode for TncCycleMode {
                 pass.write_tip_words(cx, &self.vars, &xy, None, state, out);
                 let moved = [state.tip_written[0], state.tip_written[1]] != before;
                 if moved && !given_xy && cx.motion.axis_words.iter().all(Option::is_none) {
+                    // Written out as L moves where nccomp knows the cycle's motion: they
+                    // give the corrected X, Y.
+                    state.hole_steps = self.written_out(state).ok();
                     return Err(Self::refuse(
                         cx,
                         "the hole needs a corrected X, Y and the call does not give them (expected L X… Y… … M99)".into(),
@@ -234,6 +254,7 @@ impl Mode for TncCycleMode {
                 let emitted = state.emitted;
                 pass.write_positions(cx, &q, false, state, out)?;
                 if state.emitted != emitted && cx.motion.axis_words.iter().all(Option::is_none) {
+                    state.hole_steps = self.written_out(state).ok();
                     return Err(Self::refuse(
                         cx,
                         "the hole needs a corrected X, Y and the call does not give them (expected L X… Y… … M99)".into(),
@@ -299,19 +320,43 @@ impl Mode for TncCycleMode {
         let Some(top) = self.r_solution.as_ref() else {
             return Ok(());
         };
-        pass.hole_axis_as_written(state, &self.axis(cx), (end, top), &top_written, |why| {
-            Self::refuse(cx, why)
-        })?;
+        // Where one X, Y cannot serve the whole depth, a hole whose motion nccomp knows is
+        // written out as L moves instead (the stream runs them, `stream::Run::line`).
+        let steps = self.written_out(state);
+        let off =
+            pass.hole_axis_as_written(state, &self.axis(cx), (end, top), &top_written, |why| {
+                match &steps {
+                    Ok(_) => Self::refuse(cx, why),
+                    Err(no) => Self::refuse(
+                        cx,
+                        format!("{why}; nccomp does not write it out as L moves: {no}"),
+                    ),
+                }
+            });
+        let off = match off {
+            Ok(off) => off,
+            Err(d) => {
+                state.hole_steps = steps.ok();
+                return Err(d);
+            }
+        };
+        if self.radius > 0.0 {
+            let levels = (bottom_written - self.below, clearance_written);
+            self.around_bound(pass, cx, state, out, off, levels)?;
+        }
         Ok(())
     }
 
     /// The tool ends at the larger of the set-up clearances above the surface the control
     /// holds.
     fn after(&mut self, b: &mut Block) {
-        let (pass, _, state, _) = b.parts();
+        let (pass, cx, state, _) = b.parts();
         let Some(def) = self.def.as_ref() else {
             return;
         };
+        if self.radius > 0.0 {
+            state.around_end = Some(cx.line.number);
+        }
         let zu = Unit::inch(state.modal.inch);
         let [surface, _, _, end] = self.levels;
         let held = def.surface_written.map_or(surface, |s| zu.to_mm(s));
@@ -355,6 +400,162 @@ impl Mode for TncCycleMode {
     }
 }
 
+impl Pass<'_> {
+    /// Nominal axis values that put the tip where `q` puts it with the rotary axes at
+    /// their values in `standing` (`q` itself where they stand there already, or where
+    /// the nominal machine cannot).
+    fn standing(
+        &self,
+        q: &[f64; MAX_AXES],
+        standing: &[f64; MAX_AXES],
+        length: f64,
+    ) -> [f64; MAX_AXES] {
+        let n = self.kin.len();
+        if (0..n).all(|v| self.is_linear(v) || standing[v].to_bits() == q[v].to_bits()) {
+            return *q;
+        }
+        let tip = self.kin.pose(Model::Nominal, &q[..n], length).0.p;
+        let mut guess = *q;
+        for v in (0..n).filter(|&v| !self.is_linear(v)) {
+            guess[v] = standing[v];
+        }
+        let sol = self
+            .kin
+            .tcp_axes_with_rotaries(&tip, &guess[..n], length, &self.options.solve);
+        if sol.position_residual <= 1e-9 {
+            sol.q
+        } else {
+            *q
+        }
+    }
+}
+
+impl TncCycleMode {
+    /// The motion along the axis the called cycle makes, to write out as L moves where
+    /// one X, Y cannot serve the whole depth (`Err`: why it is not written out). A feed or
+    /// dwell the definition gives by a Q parameter is written as that parameter, which
+    /// must still hold the value it had at the definition.
+    fn written_out(&self, state: &State) -> Result<Vec<HoleStep>, String> {
+        let Some(def) = self.def.as_ref() else {
+            return Err("no cycle is defined".into());
+        };
+        let steps = cycles::hole_steps(def, |q| cycles::param_text(def, q))?;
+        let current = state.modal.tnc.as_ref().map(|t| &t.q);
+        for q in [206, 208, 210, 211] {
+            let (Some(text), Some(Param::Known(at_definition))) =
+                (cycles::param_text(def, q), def.get(q))
+            else {
+                continue;
+            };
+            if let Some((key, sign)) = heidenhain::q_key(text.as_bytes()) {
+                let now = current.and_then(|c| c.get(&key)).map(|v| sign * v);
+                if now != Some(*at_definition) {
+                    return Err(format!(
+                        "Q{q} is given by {text}, which no longer holds the value it had where the cycle was defined"
+                    ));
+                }
+            }
+        }
+        Ok(steps)
+    }
+
+    /// The cylinder the cycle's motion around the axis stays in, from its deepest point
+    /// to its set-up clearance: nominal, and as the control is told for the written words
+    /// (`written`: those two levels along the hole's axis, mm).
+    fn cylinder(&self, pass: &Pass<'_>, state: &State, written: (f64, f64)) -> Option<Cylinder> {
+        let [_, bottom, clearance, _] = self.levels;
+        let nominal_levels = [bottom - self.below, clearance];
+        let written_levels = [written.0, written.1];
+        let length = state.modal.length;
+        let mut cyl = Cylinder {
+            nominal: [[0.0; MAX_AXES]; 2],
+            written: [[0.0; MAX_AXES]; 2],
+            along: [[0.0; MAX_AXES]; 2],
+            radius: self.radius,
+        };
+        match &self.frame {
+            Some(frame) => {
+                let at = |x: f64, y: f64, z: f64, from: &[f64; MAX_AXES]| {
+                    pass.plane_axes(frame, &Vector3::new(x, y, z), from, length)
+                };
+                let [x, y, _] = state.tip_nominal;
+                let [xw, yw, _] = state.tip_written;
+                for k in 0..2 {
+                    cyl.nominal[k] = at(x, y, nominal_levels[k], &state.pos.nominal)?;
+                    cyl.written[k] = at(xw, yw, written_levels[k], &state.emitted)?;
+                }
+                let top = cyl.nominal[1];
+                let ex = at(x + 1.0, y, nominal_levels[1], &top)?;
+                let ey = at(x, y + 1.0, nominal_levels[1], &top)?;
+                for v in 0..pass.kin.len() {
+                    cyl.along[0][v] = ex[v] - top[v];
+                    cyl.along[1][v] = ey[v] - top[v];
+                }
+            }
+            None => {
+                let vz = self.vars[2];
+                for k in 0..2 {
+                    cyl.nominal[k] = state.pos.nominal;
+                    cyl.nominal[k][vz] = nominal_levels[k];
+                    cyl.written[k] = state.emitted;
+                    cyl.written[k][vz] = written_levels[k];
+                }
+                cyl.along[0][self.vars[0]] = 1.0;
+                cyl.along[1][self.vars[1]] = 1.0;
+            }
+        }
+        Some(cyl)
+    }
+
+    /// A cycle that moves around its axis: what that motion can add to the `off` (mm) the
+    /// tool is off the axis at the set-up clearance, the error field's change over the
+    /// cycle's radius (`Pass::lateral_bound`), must keep the whole motion within the
+    /// tolerance plus the words' floor; refused naming the bound otherwise.
+    fn around_bound(
+        &self,
+        pass: &Pass<'_>,
+        cx: &Cx<'_, '_>,
+        state: &State,
+        out: &mut Out<'_>,
+        off: f64,
+        written: (f64, f64),
+    ) -> Result<(), Diagnostic> {
+        let tolerance = pass.options.path.unwrap_or_default().position;
+        let limit = tolerance + crate::verify::Tolerances::rounding(pass.machine);
+        let bound = self
+            .cylinder(pass, state, written)
+            .and_then(|cyl| pass.lateral_bound(&cyl, state.modal.length, limit - off));
+        let Some(bound) = bound else {
+            return Err(Self::refuse(
+                cx,
+                format!(
+                    "the motion of {} around the hole's axis cannot be bounded here (the nominal machine cannot reach its cylinder with the rotary axes where they stand, or the error model gives no bound; expected its path programmed as L moves)",
+                    self.around
+                ),
+            ));
+        };
+        if off + bound > limit {
+            return Err(Self::refuse(
+                cx,
+                format!(
+                    "the motion of {} around the hole's axis can add up to {:.2} µm (the error field's change over its radius of {:.4} mm) to the {:.2} µm the tool is off the axis at the set-up clearance: {:.2} µm, more than {:.2} µm (the tolerance of {:.2} µm and what the words' rounding to the machine's resolution can add; expected its path programmed as L moves, which nccomp compensates, or a tolerance of {:.4} mm or more)",
+                    self.around,
+                    bound * 1e3,
+                    self.radius,
+                    off * 1e3,
+                    (off + bound) * 1e3,
+                    limit * 1e3,
+                    tolerance * 1e3,
+                    (off + bound - limit + tolerance + 5e-5).max(tolerance)
+                ),
+            ));
+        }
+        out.summary.cycles_around += 1;
+        out.summary.around_bound.update(off + bound, cx.line.number);
+        Ok(())
+    }
+}
+
 /// The decimals and value of the definition's `Q203=` (a Sinumerik call: its RFP) as
 /// written.
 fn surface_text(def: &CycleDef) -> Option<(u8, f64)> {
@@ -372,43 +573,6 @@ fn surface_text(def: &CycleDef) -> Option<(u8, f64)> {
         let decimals = text.split_once('.').map_or(0, |(_, f)| f.len());
         Some((u8::try_from(decimals).ok()?, text.parse().ok()?))
     })
-}
-
-/// The value parameter `key` (`Q203`) is set to in a definition line: where its text
-/// starts and its bytes (up to a space, `;` or `~`), however the spaces fall around the `=`
-/// (`Q203=-1.5`, `Q203=  -1.5`, `Q203 = -1.5`). Not in the line's comment, nor another
-/// parameter (`Q2030`) or a value (`Q204=Q203`).
-fn value_at<'a>(line: &'a [u8], key: &[u8]) -> Option<(usize, &'a [u8])> {
-    let end = line.iter().position(|&b| b == b';').unwrap_or(line.len());
-    let line = &line[..end];
-    let blank = |b: Option<&u8>| matches!(b, Some(b' ' | b'\t'));
-    let mut from = 0;
-    while let Some(found) = line[from..].windows(key.len()).position(|w| w == key) {
-        let start = from + found;
-        from = start + 1;
-        let mut i = start + key.len();
-        if line.get(i).is_some_and(u8::is_ascii_digit)
-            || (start > 0 && !matches!(line[start - 1], b' ' | b'\t'))
-        {
-            continue;
-        }
-        while blank(line.get(i)) {
-            i += 1;
-        }
-        if line.get(i) != Some(&b'=') {
-            continue;
-        }
-        i += 1;
-        while blank(line.get(i)) {
-            i += 1;
-        }
-        let len = line[i..]
-            .iter()
-            .take_while(|b| !matches!(b, b' ' | b'\t' | b'~' | b'\r'))
-            .count();
-        return Some((i, &line[i..i + len]));
-    }
-    None
 }
 
 /// The definition's lines with `Q203=` set to `number` and the block number it takes as a

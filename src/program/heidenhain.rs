@@ -139,70 +139,6 @@ impl CycleDef {
     }
 }
 
-/// The levels of a drilling cycle along the tool axis, from its definition: the surface
-/// (Q203), the bottom (Q203 + Q201), the set-up clearance (Q203 + Q200) and where the tool
-/// ends (Q203 + the larger of Q200 and Q204), in program units; `Err`: why the cycle is
-/// not one nccomp follows.
-pub fn drilling_levels(def: &CycleDef) -> Result<[f64; 4], String> {
-    let known = |q: u32| match def.get(q) {
-        Some(Param::Known(v)) => Ok(*v),
-        Some(Param::Unknown(what)) => Err(format!(
-            "Q{q} is given by {what}, which the program never sets to a constant (its value is decided at run time)"
-        )),
-        None => Err(format!("it has no Q{q}")),
-    };
-    match def.number {
-        // Drilling, reaming, universal drilling, universal pecking, tapping, rigid tapping
-        // and tapping with chip breaking go straight down the tool axis and back.
-        200 | 201 | 203 | 205 | 206 | 207 | 209 => {}
-        202 => {
-            // Boring: at the bottom the tool leaves the wall in the Q214 direction.
-            if known(214)? != 0.0 {
-                return Err("boring (202) with a disengaging direction Q214 other than 0 moves the tool sideways at the bottom".into());
-            }
-        }
-        204 | 208 => {
-            return Err(format!(
-                "cycle {} ({}) moves off the tool axis",
-                def.number,
-                if def.number == 204 {
-                    "back boring"
-                } else {
-                    "bore milling"
-                }
-            ));
-        }
-        n => {
-            return Err(format!(
-                "cycle {n} is not a drilling cycle nccomp follows (expected 200–203, 205–207, 209)"
-            ));
-        }
-    }
-    if let Some(Param::Known(v)) = def.get(395)
-        && *v != 0.0
-    {
-        return Err("Q395=1 measures the depth to the tool's full diameter, which depends on the tool's point angle".into());
-    }
-    let surface = known(203)?;
-    let depth = known(201)?;
-    let clearance = known(200)?;
-    let second = match def.get(204) {
-        None => 0.0,
-        Some(_) => known(204)?,
-    };
-    if depth >= 0.0 || clearance < 0.0 {
-        return Err(
-            "expected a negative depth Q201 and a set-up clearance Q200 of 0 or more".into(),
-        );
-    }
-    Ok([
-        surface,
-        surface + depth,
-        surface + clearance,
-        surface + clearance.max(second),
-    ])
-}
-
 /// A program's labels: each label's body, the lines from the label to `LBL 0`.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Labels {
@@ -1594,7 +1530,7 @@ impl Reader<'_> {
                 "a cycle call, but no cycle is defined (expected CYCL DEF before it)".into(),
             ));
         };
-        drilling_levels(def).map_err(|why| {
+        super::tnc_cycles::reach(def, modal.inch).map_err(|why| {
             at(
                 col,
                 format!(

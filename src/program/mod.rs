@@ -24,6 +24,7 @@ pub mod heidenhain;
 pub mod moves;
 pub mod params;
 pub mod sinumerik;
+pub mod tnc_cycles;
 
 pub use codes::{Code, CodeName, MachineCodes, Tcp};
 

@@ -813,16 +813,17 @@ impl<'m> Gate<'m> {
     /// Whether written step `w` ends where original step `o` does (tip within the end
     /// tolerance, and the direction where it is judged).
     fn ends_together(&self, o: &Step, w: &Step) -> bool {
-        // A rotary axis a turn or more from the original's end gives the same pose at
-        // another place of the move (a piece of a move that turns past a full turn). Not in
-        // a working plane: there the rotary axes stand where the control turned them, from
-        // where each program left them (a half turn either way is one pose: the turns of
-        // the two programs may take either).
+        // On a move that turns a rotary axis half a turn or more, a written end half a
+        // turn or more from the original's may give the same pose at another place of
+        // the move (a piece of a move that turns past a full turn). (Elsewhere values a
+        // turn apart are the same place: the controller's turn to a plane may pick either.)
         let kin = self.kin(o.chain, o.shift);
         if w.chain == o.chain
-            && o.frame.is_none()
+            && let Some(start) = o.mv.start
             && (0..kin.len()).any(|v| {
-                kin.kind(v) == AxisKind::Rotary && (w.mv.end[v] - o.mv.end[v]).abs() >= 180.0
+                kin.kind(v) == AxisKind::Rotary
+                    && (o.mv.end[v] - start[v]).abs() >= 180.0
+                    && (w.mv.end[v] - o.mv.end[v]).abs() >= 180.0
             })
         {
             return false;
