@@ -623,6 +623,11 @@ impl Pass<'_> {
         }
         if state.modal.working_plane.is_some_and(|p| !p.rotation_only) {
             summary.plane_blocks += 1;
+            summary.plane_construct = match state.modal.dialect {
+                nc::Dialect::Iso => "G68.2",
+                nc::Dialect::Heidenhain => "PLANE",
+                nc::Dialect::Sinumerik => "CYCLE800",
+            };
             summary.plane_direction.update(ad, line);
         }
         (ap, ad)

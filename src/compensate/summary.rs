@@ -69,6 +69,9 @@ pub struct Summary {
     /// figures too).
     pub plane_blocks: usize,
     pub plane_direction: Extreme,
+    /// How the program tilts its working plane, as its dialect writes it (`G68.2`,
+    /// `PLANE`, `CYCLE800`), for the summary's line.
+    pub plane_construct: &'static str,
     /// Blocks whose error-table look-up lay beyond a table's ends (values held).
     pub beyond_table_blocks: usize,
     pub first_beyond_table: usize,
@@ -225,8 +228,9 @@ impl Summary {
         }
         if self.plane_blocks > 0 {
             out.push(format!(
-                "{} in tilted working planes (G68.2, PLANE, CYCLE800): the rotary axes stood where the controller turned them; direction error left there up to {}",
+                "{} in tilted working planes ({}): the rotary axes stood where the controller turned them; direction error left there up to {}",
                 count(self.plane_blocks, "block"),
+                self.plane_construct,
                 urad(self.plane_direction)
             ));
         }
