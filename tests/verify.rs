@@ -253,6 +253,13 @@ fn verify_passes_on_outputs_and_finds_a_hand_broken_word_in_each_dialect() {
             "N80 X",
             'X',
         ),
+        // Arcs under G43.4: a piece of a helix whose A and C turn along it, moved off it.
+        (
+            "ac_trunnion",
+            "fixtures/ac_trunnion_tcp_arcs.nc",
+            "N80 X",
+            'Y',
+        ),
     ] {
         let output = compensate_and_verify(&dir, machine, program);
         let text = std::fs::read_to_string(&output).unwrap();

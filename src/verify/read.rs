@@ -270,9 +270,12 @@ impl<'m> Follower<'m> {
         } else if self.modal.tcp
             && (self.modal.working_plane.is_some()
                 || self.modal.shift != Some([0.0; 3])
-                || !matches!(motion.kind, MoveKind::Program))
+                || !matches!(motion.kind, MoveKind::Program | MoveKind::Arc { .. })
+                || (self.modal.tcp_vector && !matches!(motion.kind, MoveKind::Program)))
         {
-            // Planes, shifted zeros and arcs under TCP are not followed.
+            // Planes and shifted zeros under TCP, and arcs under G43.5, are not followed.
+            // (An arc under G43.4 is: the control takes the tip along the arc, the rotary
+            // axes in proportion, as an arc's other axes.)
             Some(GapKind::Tcp)
         } else if self.modal.working_plane.is_some() && !self.follows_plane(&motion) {
             Some(GapKind::Plane)
