@@ -77,8 +77,9 @@ pub struct Pole {
     /// Its two coordinates in that plane's order (program units).
     pub centre: [f64; 2],
     /// The frame its coordinates were given in: the working plane's origin and axes, or
-    /// the datum shift outside a plane.
-    pub frame: [f64; 12],
+    /// the datum shift outside a plane; and whether tool-centre-point control was on
+    /// (the words are the tip on the part, not the axes).
+    pub frame: [f64; 13],
     /// Which CC of the program set it (counted from 1): a pole set again to the same
     /// coordinates is another.
     pub seq: u64,
@@ -86,12 +87,13 @@ pub struct Pole {
 
 /// The frame a TNC block's coordinates are given in: the working plane in force (its
 /// origin and axes), or outside one the datum shift of CYCL DEF 7.
-fn frame_of(modal: &Modal, tnc: &Tnc) -> [f64; 12] {
-    let mut key = [0.0; 12];
+fn frame_of(modal: &Modal, tnc: &Tnc) -> [f64; 13] {
+    let mut key = [0.0; 13];
+    key[12] = f64::from(u8::from(modal.tcp));
     match &modal.working_plane {
         Some(plane) => {
             key[..3].copy_from_slice(plane.origin.as_slice());
-            key[3..].copy_from_slice(plane.rotation.matrix().as_slice());
+            key[3..12].copy_from_slice(plane.rotation.matrix().as_slice());
         }
         None => key[..3].copy_from_slice(&tnc.datum),
     }
@@ -699,14 +701,6 @@ impl Reader<'_> {
         let kind = text(content, &tokens[sig[0]]);
         let col0 = tokens[sig[0]].span.start;
         let axes = &self.chains[modal.chain];
-        if modal.tcp {
-            return Err(at(
-                col0,
-                format!(
-                    "{kind} arcs under tool-centre-point control (M128, FUNCTION TCPM) are not compensated in TNC programs (expected L moves there)"
-                ),
-            ));
-        }
         let (plane, centre) = match kind {
             "CR" => (0, None),
             _ => match tnc.pole {
@@ -714,7 +708,7 @@ impl Reader<'_> {
                     return Err(at(
                         col0,
                         format!(
-                            "{kind} runs about the circle centre of the last CC, which was given in another frame (the working plane or datum shift has changed since): where the control puts it is not followed (expected CC again after PLANE or CYCL DEF 7)"
+                            "{kind} runs about the circle centre of the last CC, which was given in another frame (the working plane or datum shift has changed since, or tool-centre-point control was switched): where the control puts it is not followed (expected CC again after PLANE, CYCL DEF 7, M128/M129 or FUNCTION TCPM)"
                         ),
                     ));
                 }
