@@ -517,3 +517,37 @@ fn length_of_tool_1(machine: &str, length: f64) -> String {
         .join("\n")
         + "\n"
 }
+
+/// A set-up that moves the geometry's own offset (G54 here) moves the part, not the
+/// machine: a program in G54 with the set-up's G54 lands where the same program in G55
+/// lands with that value as the machine file's G55 (the geometry staying at the machine
+/// file's G54).
+#[test]
+fn a_set_up_moving_the_geometry_s_offset_moves_the_part_not_the_machine() {
+    let f = root().join("fixtures");
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let machine = std::fs::read_to_string(f.join("head_head.machine.toml")).unwrap();
+    std::fs::write(d.join("hh.machine.toml"), format!("{machine}{OFFSETS}")).unwrap();
+    std::fs::copy(f.join("head_head.errors.toml"), d.join("hh.errors.toml")).unwrap();
+    std::fs::write(
+        d.join("job.toml"),
+        "[work_offsets]\nG54 = { X = -212.5, Y = -171.25, Z = -395.0 }\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("part.nc"), IN_G55.replace("G55", "G54")).unwrap();
+    let (in_g54, summary) = compensate(d, "hh.machine.toml", &["--setup", "job.toml"]);
+    assert!(
+        summary
+            .contains("set-up: G54 = X-212.5 Y-171.25 Z-395 (job.toml:2, over X-300 Y-180 Z-400)"),
+        "{summary}"
+    );
+    let edited = format!("{machine}{OFFSETS}").replace(
+        "G55 = { X = -200.0, Y = -180.0, Z = -400.0 }",
+        "G55 = { X = -212.5, Y = -171.25, Z = -395.0 }",
+    );
+    std::fs::write(d.join("edited.machine.toml"), edited).unwrap();
+    std::fs::write(d.join("part.nc"), IN_G55).unwrap();
+    let (in_g55, _) = compensate(d, "edited.machine.toml", &[]);
+    assert_eq!(text(&in_g54), text(&in_g55).replace("G55", "G54"));
+}
