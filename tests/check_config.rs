@@ -551,3 +551,66 @@ fn a_set_up_moving_the_geometry_s_offset_moves_the_part_not_the_machine() {
     let (in_g55, _) = compensate(d, "edited.machine.toml", &[]);
     assert_eq!(text(&in_g54), text(&in_g55).replace("G55", "G54"));
 }
+
+/// A TNC program's preset from the control's PRESET.PR: the row at the machine file's
+/// preset writes the same program byte for byte; a row elsewhere moves program zero away
+/// from where the machine's geometry is given, which the tilted plane refuses at its
+/// blocks rather than guessing the geometry in the moved frame.
+#[test]
+fn a_tnc_preset_from_preset_pr_is_the_machine_file_s_or_refused_under_a_plane() {
+    let Some(cam) = skip::corpus_path("cam") else {
+        return;
+    };
+    let program = cam.join("hm_dmu85_W5270NS01061A6.h");
+    let program = program.to_str().unwrap();
+    let fixtures = root().join("fixtures/corpus");
+    let machine = fixtures.join("dmu85_ac.machine.toml");
+    let errors = fixtures.join("dmu85_ac.errors.toml");
+    let (machine, errors) = (machine.to_str().unwrap(), errors.to_str().unwrap());
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("PRESET.PR"),
+        "BEGIN PRESET.PR MM\nNR   DOC          ROT      X          Y          Z          SPC\n1    SAME         +0       -300       -250       -450       +0\n2    MOVED        +0       -310       -250       -450       +0\n[END]\n",
+    )
+    .unwrap();
+    for row in [1, 2] {
+        std::fs::write(
+            d.join(format!("row{row}.toml")),
+            format!("[tables]\noffsets = \"PRESET.PR\"\npreset = {row}\nbasis = {{ X = 0, Y = 0, Z = 0 }}\n"),
+        )
+        .unwrap();
+    }
+    let run = |extra: &[&str], out: &str| {
+        let mut args = vec![
+            "compensate",
+            "-m",
+            machine,
+            "-e",
+            errors,
+            program,
+            "-o",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        nccomp(d, &args)
+    };
+    assert!(run(&[], "plain.h").status.success());
+    let same = run(&["--setup", "row1.toml"], "same.h");
+    assert!(same.status.success(), "{}", text(&same.stderr));
+    assert!(
+        text(&same.stderr).contains("set-up: G54 = X-300 Y-250 Z-450 (PRESET.PR:3"),
+        "{}",
+        text(&same.stderr)
+    );
+    assert!(std::fs::read(d.join("plain.h")).unwrap() == std::fs::read(d.join("same.h")).unwrap());
+    let moved = run(&["--setup", "row2.toml"], "moved.h");
+    assert_eq!(moved.status.code(), Some(2));
+    let err = text(&moved.stderr);
+    assert!(
+        err.contains("hm_dmu85_W5270NS01061A6.h:60:6")
+            && err.contains("program zero other than the machine file's geometry zero"),
+        "{err}"
+    );
+    assert!(!d.join("moved.h").exists());
+}
