@@ -614,3 +614,89 @@ fn a_tnc_preset_from_preset_pr_is_the_machine_file_s_or_refused_under_a_plane() 
     );
     assert!(!d.join("moved.h").exists());
 }
+
+/// An entry whose machine file is unusable makes its programs unusable, with why; the
+/// other entries' programs are still checked in the same run.
+#[test]
+fn an_unusable_entry_spoils_its_programs_only() {
+    let shop = fixture_shop();
+    let config = std::fs::read_to_string(shop.path().join("nccomp.toml")).unwrap();
+    std::fs::write(
+        shop.path().join("nccomp.toml"),
+        config.replace("machines/hh.machine.toml", "machines/missing.machine.toml"),
+    )
+    .unwrap();
+    let out = nccomp(
+        shop.path(),
+        &["check", "--format", "json", "--max-angle", "200"],
+    );
+    let doc = valid_json(&out);
+    assert_eq!(out.status.code(), Some(2), "{doc:#}");
+    let hh = program(&doc, "demo.nc");
+    assert_eq!(hh["status"], "unusable");
+    let why = hh["error"].as_str().unwrap();
+    assert!(
+        why.contains("[[programs]] entry 2 of nccomp.toml cannot be used")
+            && why.contains("missing.machine.toml"),
+        "{why}"
+    );
+    assert_eq!(program(&doc, "part.nc")["status"], "clean");
+}
+
+/// `report` takes the set-up as `compensate` does and says so.
+#[test]
+fn report_takes_the_set_up_too() {
+    let f = root().join("fixtures");
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(
+        f.join("ac_trunnion.machine.toml"),
+        d.join("ac.machine.toml"),
+    )
+    .unwrap();
+    std::fs::copy(f.join("ac_trunnion.errors.toml"), d.join("ac.errors.toml")).unwrap();
+    std::fs::write(d.join("part.nc"), WITH_TOOL_1).unwrap();
+    std::fs::write(d.join("tool.tbl"), "T1 P1 Z+300.000\n").unwrap();
+    let out = nccomp(
+        d,
+        &[
+            "report",
+            "-m",
+            "ac.machine.toml",
+            "-e",
+            "ac.errors.toml",
+            "--setup",
+            "tool.tbl",
+            "part.nc",
+            "-o",
+            "r.html",
+        ],
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("set-up: tool 1 = 300 mm (tool.tbl:1, over 95.3 mm)"),
+        "{}",
+        text(&out.stderr)
+    );
+    // An output over an input is refused before anything is written.
+    let out = nccomp(
+        d,
+        &[
+            "report",
+            "-m",
+            "ac.machine.toml",
+            "-e",
+            "ac.errors.toml",
+            "--setup",
+            "tool.tbl",
+            "part.nc",
+            "-o",
+            "tool.tbl",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(
+        std::fs::read_to_string(d.join("tool.tbl")).unwrap(),
+        "T1 P1 Z+300.000\n"
+    );
+}

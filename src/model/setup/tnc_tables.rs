@@ -388,6 +388,17 @@ NR   DOC          ROT      X          Y          Z          SPC      C
             .unwrap_err()
             .to_string();
         assert!(e.contains("PRESET.PR:2:1") && e.contains("no row 9"), "{e}");
+        // A TNC7 table numbers its rows in NO; an axis offset is refused like a rotation.
+        let tnc7 = "BEGIN PRESET.PR MM\nNO   X      Y      Z      X_OFFS\n1    -1     -2     -3     +0.5\n[END]\n";
+        let e = parse_preset_pr(tnc7, "PRESET.PR", 1, [0.0; 3])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("PRESET.PR:3:27") && e.contains("X_OFFS of preset 1"),
+            "{e}"
+        );
+        let ok = parse_preset_pr(&tnc7.replace("+0.5", "+0  "), "PRESET.PR", 1, [0.0; 3]).unwrap();
+        assert_eq!(ok.offsets[0].value, [-1.0, -2.0, -3.0]);
         let text = PRESET_PR.replace("-180  ", "?     ");
         let e = parse_preset_pr(&text, "PRESET.PR", 3, [0.0; 3])
             .unwrap_err()
