@@ -14,7 +14,7 @@ mod report;
 pub mod settings;
 pub mod stale;
 
-pub use expand::{expand, expand_marked};
+pub use expand::{expand, expand_marked, not_regular};
 pub use progress::progress_bar;
 
 use crate::compensate::{Compensator, Extreme, Options, Summary, TRAVEL_LIMIT};

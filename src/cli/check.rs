@@ -136,19 +136,23 @@ fn from_config(args: &CheckArgs) -> crate::Result<Run> {
     };
     let config = Config::load(&path)?;
     let config_name = path.display().to_string();
-    // Each program with the entry that claims it.
-    let claims: Vec<(PathBuf, Option<usize>)> = if args.programs.is_empty() {
+    // Each program with the entry that claims it, and whether a pattern matched it and
+    // it is a FIFO or a socket (named, not read: reading one waits for a writer).
+    let claims: Vec<(PathBuf, Option<usize>, bool)> = if args.programs.is_empty() {
         config
             .claims()?
             .into_iter()
-            .map(|c| (c.path, c.entry))
+            .map(|c| {
+                let special = crate::check::not_regular(&c.path);
+                (c.path, c.entry, special)
+            })
             .collect()
     } else {
-        crate::check::expand(&args.programs)?
+        crate::check::expand_marked(&args.programs)?
             .into_iter()
-            .map(|p| {
+            .map(|(p, special)| {
                 let entry = config.claim(&p);
-                (p, entry)
+                (p, entry, special)
             })
             .collect()
     };
@@ -162,7 +166,7 @@ fn from_config(args: &CheckArgs) -> crate::Result<Run> {
     // whose files are unusable makes its programs unusable, not the others.
     let mut loaded = Vec::new();
     for (i, entry) in config.entries.iter().enumerate() {
-        if !claims.iter().any(|(_, e)| *e == Some(i)) {
+        if !claims.iter().any(|(_, e, _)| *e == Some(i)) {
             continue;
         }
         let settings = cli
@@ -201,9 +205,15 @@ fn from_config(args: &CheckArgs) -> crate::Result<Run> {
     let programs: Vec<ProgramCheck> = quietly(|| {
         claims
             .par_iter()
-            .map(|(path, entry)| {
+            .map(|(path, entry, special)| {
                 let name = path.display().to_string();
                 let check = match entry.and_then(|e| checkers.iter().find(|(i, _)| *i == e)) {
+                    Some(_) if *special => ProgramCheck::unusable(
+                        &name,
+                        &Error::Usage(format!(
+                            "{name}: not a regular file (a FIFO or a socket), matched by a pattern: expected an NC program file"
+                        )),
+                    ),
                     Some((_, Ok(checker))) => checker.file(path),
                     Some((i, Err((machine, error)))) => {
                         let mut c = ProgramCheck::unusable(
