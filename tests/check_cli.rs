@@ -21,8 +21,15 @@ fn nccomp(args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// `check` against the AC trunnion. Its exaggerated errors leave up to 166 µrad of
+/// direction error at singular poses (C along the tool, held), above the default
+/// --max-angle of 100 µrad (tests/check_config.rs shows it failing): these tests are about
+/// other findings, so they judge the direction at 200 µrad unless they say.
 fn check(extra: &[&str]) -> Output {
     let mut args = vec!["check", "-m", M, "-e", E];
+    if !extra.contains(&"--max-angle") {
+        args.extend(["--max-angle", "200"]);
+    }
     args.extend_from_slice(extra);
     nccomp(&args)
 }
@@ -98,7 +105,7 @@ fn exit_0_human_every_program_is_clean_and_stderr_stays_silent() {
     );
     assert!(
         text.ends_with(
-            "checked 3 programs against fixtures/ac_trunnion.machine.toml and fixtures/ac_trunnion.errors.toml: 3 clean, 0 with findings, 0 unusable (--max-error 0.01 mm)\n"
+            "checked 3 programs against fixtures/ac_trunnion.machine.toml and fixtures/ac_trunnion.errors.toml: 3 clean, 0 with findings, 0 unusable (--max-error 0.01 mm, --max-angle 200 µrad)\n"
         ),
         "{text}"
     );
@@ -134,7 +141,7 @@ fn exit_0_json_matches_the_schema_and_the_summary() {
     assert_eq!(doc["status"], "clean");
     assert_eq!(doc["exit_code"], 0);
     assert_eq!(doc["thresholds"]["max_error_mm"], 0.01);
-    assert_eq!(doc["thresholds"]["max_angle_urad"], Value::Null);
+    assert_eq!(doc["thresholds"]["max_angle_urad"], 200.0);
     let p = &doc["programs"][0];
     assert_eq!(p["lands_every_pose"], true);
     let lines = std::fs::read_to_string("fixtures/feature_workpiece.nc")
@@ -195,7 +202,9 @@ fn exit_1_human_points_at_the_offending_words() {
         quiet.contains(&refused) && quiet.contains(&travel),
         "{quiet}"
     );
-    assert!(quiet.ends_with("1 clean, 1 with findings, 0 unusable (--max-error 0.01 mm)\n"));
+    assert!(quiet.ends_with(
+        "1 clean, 1 with findings, 0 unusable (--max-error 0.01 mm, --max-angle 200 µrad)\n"
+    ));
 }
 
 #[test]

@@ -275,6 +275,7 @@ fn three_axis_rotary(rotary_first: bool) -> nccomp::model::Machine {
         cycle_r_initial: false,
         block_delete: None,
         start: Vec::new(),
+        errors_file: None,
         work_offsets: None,
     }
 }

@@ -61,7 +61,7 @@ pub fn expand_marked(args: &[String]) -> crate::Result<Vec<(PathBuf, bool)>> {
 }
 
 /// The file at `path` is a FIFO or a socket.
-fn not_regular(path: &Path) -> bool {
+pub fn not_regular(path: &Path) -> bool {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;

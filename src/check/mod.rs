@@ -7,16 +7,19 @@
 //! here evaluates the kinematics itself. Thresholds turn what the pass found into
 //! failures ([`Finding`]); programs are checked in parallel.
 
+pub mod config;
 mod expand;
 mod progress;
 mod report;
+pub mod settings;
 pub mod stale;
 
-pub use expand::{expand, expand_marked};
+pub use expand::{expand, expand_marked, not_regular};
 pub use progress::progress_bar;
 
 use crate::compensate::{Compensator, Extreme, Options, Summary, TRAVEL_LIMIT};
 use crate::diag::{Diagnostic, Error, panic_message};
+use crate::model::setup::Used;
 use crate::model::{ErrorModel, Machine};
 use crate::nc::{self, TokenKind};
 use rayon::prelude::*;
@@ -56,8 +59,8 @@ pub struct Thresholds {
 impl Default for Thresholds {
     fn default() -> Self {
         Thresholds {
-            max_error_mm: 0.010,
-            max_angle_urad: None,
+            max_error_mm: settings::MAX_ERROR_MM,
+            max_angle_urad: Some(settings::MAX_ANGLE_URAD),
         }
     }
 }
@@ -198,6 +201,16 @@ pub struct ProgramCheck {
     pub status: Status,
     /// Why the program could not be checked (status `unusable`).
     pub error: Option<String>,
+    /// The machine file and error file it was checked against (`None` for a program no
+    /// entry of the config claims).
+    pub machine: Option<String>,
+    pub errors: Option<String>,
+    pub thresholds: Option<Thresholds>,
+    /// The set-up values the pass used, each with its file and line.
+    pub setup: Vec<Used>,
+    /// The pass read the program and evaluated its poses: false with a zero error model
+    /// (the program is passed through unread) or when it could not be checked.
+    pub checked: bool,
     pub lines: usize,
     pub motion_blocks: usize,
     /// Predicted errors if the program ran as it is...
@@ -218,11 +231,16 @@ pub struct ProgramCheck {
 }
 
 impl ProgramCheck {
-    fn unusable(path: &str, error: &Error) -> Self {
+    pub fn unusable(path: &str, error: &Error) -> Self {
         ProgramCheck {
             path: path.to_string(),
             status: Status::Unusable,
             error: Some(error.to_string()),
+            machine: None,
+            errors: None,
+            thresholds: None,
+            setup: Vec::new(),
+            checked: false,
             lines: 0,
             motion_blocks: 0,
             before: None,
@@ -246,6 +264,9 @@ pub struct Checker<'m> {
     max_refused: usize,
     /// A program the pass did not read (a zero error model) is clean, not a finding.
     allow_unread: bool,
+    /// The machine and error files' names and the set-up values, for each program's entry.
+    names: Option<(String, String)>,
+    setup: Vec<Used>,
 }
 
 impl<'m> Checker<'m> {
@@ -270,7 +291,29 @@ impl<'m> Checker<'m> {
             thresholds,
             max_refused,
             allow_unread: false,
+            names: None,
+            setup: Vec::new(),
         })
+    }
+
+    /// Name the machine and error files and the set-up values in each program's check.
+    pub fn described(self, machine: &str, errors: &str, setup: Vec<Used>) -> Self {
+        Checker {
+            names: Some((machine.to_string(), errors.to_string())),
+            setup,
+            ..self
+        }
+    }
+
+    /// `check` with this checker's machine, error file, thresholds and set-up named.
+    fn stamp(&self, mut check: ProgramCheck) -> ProgramCheck {
+        if let Some((m, e)) = &self.names {
+            check.machine = Some(m.clone());
+            check.errors = Some(e.clone());
+        }
+        check.thresholds = Some(self.thresholds);
+        check.setup = self.setup.clone();
+        check
     }
 
     /// Whether a program the pass did not read (a zero error model copies every program
@@ -379,7 +422,7 @@ impl<'m> Checker<'m> {
         }
         findings.sort_by_key(|f| (f.at.line, f.at.column));
         let notes = notes(&summary, &before, &t);
-        ProgramCheck {
+        self.stamp(ProgramCheck {
             path: path.to_string(),
             status: if findings.is_empty() {
                 Status::Clean
@@ -387,17 +430,23 @@ impl<'m> Checker<'m> {
                 Status::Findings
             },
             error: None,
+            machine: None,
+            errors: None,
+            thresholds: None,
+            setup: Vec::new(),
+            checked: !summary.zero_model,
             lines: summary.lines,
             motion_blocks: summary.motion_blocks,
             before: Some(before),
             after: Some(after),
-            lands_every_pose: Some(refused.is_empty() && within),
+            // A pass that read nothing lands nothing: it says so instead.
+            lands_every_pose: (!summary.zero_model).then_some(refused.is_empty() && within),
             singular_blocks: summary.singular_blocks,
             uncompensated_blocks: summary.uncompensated_blocks,
             findings,
             notes,
             stopped_early: refused.len() >= self.max_refused,
-        }
+        })
     }
 
     /// Check the program in the file at `path`: unusable if it cannot be read, or if
@@ -407,7 +456,7 @@ impl<'m> Checker<'m> {
         let name = path.display().to_string();
         let check = || match std::fs::read(path) {
             Ok(src) => self.program(&src, &name),
-            Err(e) => ProgramCheck::unusable(&name, &Error::io(path, e)),
+            Err(e) => self.stamp(ProgramCheck::unusable(&name, &Error::io(path, e))),
         };
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(check)).unwrap_or_else(|panic| {
             let message = format!(
@@ -415,7 +464,7 @@ impl<'m> Checker<'m> {
                  it with the program; the other programs were checked",
                 panic_message(&*panic)
             );
-            ProgramCheck::unusable(&name, &Error::Usage(message))
+            self.stamp(ProgramCheck::unusable(&name, &Error::Usage(message)))
         })
     }
 
@@ -531,9 +580,13 @@ fn notes(summary: &Summary, before: &Errors, t: &Thresholds) -> Vec<String> {
 /// Every program's check and the run's status.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Run {
-    pub machine: String,
-    pub errors: String,
-    pub thresholds: Thresholds,
+    /// The config the run followed (`nccomp check` with `nccomp.toml`).
+    pub config: Option<String>,
+    /// The machine file, error file and thresholds of every program; `None` in a run from
+    /// a config (each program names its own).
+    pub machine: Option<String>,
+    pub errors: Option<String>,
+    pub thresholds: Option<Thresholds>,
     pub programs: Vec<ProgramCheck>,
 }
 
@@ -585,9 +638,10 @@ mod tests {
         assert_eq!(refused.status, Status::Findings);
         assert_eq!(refused.lands_every_pose, Some(false));
         let mut run = Run {
-            machine: String::new(),
-            errors: String::new(),
-            thresholds: Thresholds::default(),
+            config: None,
+            machine: None,
+            errors: None,
+            thresholds: None,
             programs: vec![clean.clone()],
         };
         assert_eq!(run.status(), Status::Clean);
@@ -616,6 +670,18 @@ mod tests {
         let check = checker.program(b"G41 D1 X1\n", "a.nc");
         assert_eq!(check.status, Status::Clean);
         assert!(check.notes[0].contains("nothing was checked"), "{check:#?}");
+        // Nothing read, nothing landed: the check does not claim it.
+        assert_eq!((check.checked, check.lands_every_pose), (false, None));
+        let run = Run {
+            config: None,
+            machine: Some("m.toml".into()),
+            errors: Some("zero.toml".into()),
+            thresholds: Some(Thresholds::default()),
+            programs: vec![check],
+        };
+        let human = run.human(false, false);
+        assert!(!human.contains("lands every pose"), "{human}");
+        assert!(human.contains("nothing was checked"), "{human}");
     }
 
     #[test]

@@ -8,16 +8,17 @@ use std::fmt::Write;
 
 /// The version of the JSON output's schema: raised on any change that could break a
 /// reader (a field removed, renamed or changing meaning); new fields may come without.
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
 
 #[derive(Serialize)]
 struct Json<'a> {
     format: &'static str,
     schema_version: u32,
     nccomp_version: &'static str,
-    machine: &'a str,
-    errors: &'a str,
-    thresholds: Thresholds,
+    config: Option<&'a str>,
+    machine: Option<&'a str>,
+    errors: Option<&'a str>,
+    thresholds: Option<Thresholds>,
     status: Status,
     exit_code: u8,
     totals: Totals,
@@ -30,6 +31,8 @@ struct Totals {
     clean: usize,
     findings: usize,
     unusable: usize,
+    /// Programs the pass did not read (a zero error model): nothing was checked in them.
+    unread: usize,
 }
 
 impl Run {
@@ -40,6 +43,11 @@ impl Run {
             clean: count(Status::Clean),
             findings: count(Status::Findings),
             unusable: count(Status::Unusable),
+            unread: self
+                .programs
+                .iter()
+                .filter(|p| !p.checked && p.status != Status::Unusable)
+                .count(),
         }
     }
 
@@ -50,8 +58,9 @@ impl Run {
             format: "nccomp-check",
             schema_version: SCHEMA_VERSION,
             nccomp_version: env!("CARGO_PKG_VERSION"),
-            machine: &self.machine,
-            errors: &self.errors,
+            config: self.config.as_deref(),
+            machine: self.machine.as_deref(),
+            errors: self.errors.as_deref(),
             thresholds: self.thresholds,
             status,
             exit_code: status.exit_code(),
@@ -72,21 +81,36 @@ impl Run {
             if failures_only && p.status == Status::Clean {
                 continue;
             }
-            program(&mut out, p, &self.thresholds, color);
+            program(&mut out, p, self.machine.is_none(), color);
             out.push('\n');
         }
         let t = self.totals();
-        let _ = writeln!(
+        let against = match (&self.config, &self.machine, &self.errors) {
+            (_, Some(m), Some(e)) => format!("{m} and {e}"),
+            (Some(c), _, _) => c.clone(),
+            _ => "its machine".to_string(),
+        };
+        let limits = self
+            .thresholds
+            .as_ref()
+            .map_or(String::new(), |th| format!(" ({})", limits(th)));
+        let _ = write!(
             out,
-            "checked {} against {} and {}: {} clean, {} with findings, {} unusable ({})",
+            "checked {} against {against}: {} clean, {} with findings, {} unusable{limits}",
             plural(t.programs, "program"),
-            self.machine,
-            self.errors,
             t.clean,
             t.findings,
             t.unusable,
-            limits(&self.thresholds),
         );
+        if t.unread > 0 {
+            let _ = write!(
+                out,
+                "; {} not read (a zero error model): nothing was checked in {}",
+                t.unread,
+                if t.unread == 1 { "it" } else { "them" }
+            );
+        }
+        out.push('\n');
         out
     }
 }
@@ -110,13 +134,23 @@ fn at(peak: &Peak) -> String {
     peak.line.map_or(String::new(), |l| format!(" (line {l})"))
 }
 
-fn program(out: &mut String, p: &ProgramCheck, t: &Thresholds, color: bool) {
+fn program(out: &mut String, p: &ProgramCheck, each_machine: bool, color: bool) {
     let status = match p.status {
         Status::Clean => "clean".to_string(),
         Status::Findings => plural(p.findings.len(), "finding"),
         Status::Unusable => "unusable".to_string(),
     };
     let _ = writeln!(out, "{}: {status}", p.path);
+    if each_machine && let (Some(m), Some(e)) = (&p.machine, &p.errors) {
+        let limits = p
+            .thresholds
+            .as_ref()
+            .map_or(String::new(), |t| format!(" ({})", limits(t)));
+        let _ = writeln!(out, "  against {m} and {e}{limits}");
+    }
+    if let Some(line) = crate::model::setup::summary_line(&p.setup) {
+        let _ = writeln!(out, "  {line}");
+    }
     if let Some(error) = &p.error {
         let _ = writeln!(out, "{}", render_message(Severity::Error, error, color));
         return;
@@ -130,18 +164,21 @@ fn program(out: &mut String, p: &ProgramCheck, t: &Thresholds, color: bool) {
     if let (Some(before), Some(after)) = (&p.before, &p.after) {
         predictions(out, before, after);
     }
-    match p.lands_every_pose {
-        Some(true) => {
+    match (p.lands_every_pose, &p.thresholds) {
+        (Some(true), Some(t)) => {
             let _ = writeln!(
                 out,
                 "  compensation lands every pose within the thresholds ({})",
                 limits(t)
             );
         }
-        Some(false) => {
+        (Some(false), _) => {
             let _ = writeln!(out, "  compensation does not land every pose");
         }
-        None => {}
+        _ if !p.checked => {
+            let _ = writeln!(out, "  nothing was checked: the program was not read");
+        }
+        _ => {}
     }
     for note in &p.notes {
         let _ = writeln!(out, "  note: {note}");

@@ -3,8 +3,10 @@
 
 use super::files::{commit, destinations, eprint, is_std, print, read_file};
 use crate::check::Status;
+use crate::check::settings::Settings;
 use crate::compensate::{Compensator, Options};
-use crate::model::{error_file, machine_file};
+use crate::model::setup::Used;
+use crate::model::{ErrorModel, Machine, error_file, machine_file};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -34,16 +36,26 @@ pub(super) struct CompensateArgs {
     quiet: bool,
 }
 
-/// The machine, its errors and the options of the compensation pass (`compensate` and
-/// `check` share them, so a check predicts what compensation will do).
+/// The machine, its errors and the options of the compensation pass (`compensate`,
+/// `check`, `report` and `verify` share them, so a check predicts what compensation will
+/// do and the gate judges with the values the pass used).
 #[derive(clap::Args)]
 pub(super) struct PassArgs {
     /// Machine file (TOML): axes, chains, pivot points, travels, tool lengths.
     #[arg(long, short = 'm', value_name = "MACHINE.toml")]
     pub(super) machine: PathBuf,
-    /// Error file (TOML): the machine's measured errors (a calibration).
+    /// Error file (TOML): the machine's measured errors (a calibration). Left out: the
+    /// one the machine file names (`errors = "…"`).
     #[arg(long, short = 'e', value_name = "ERRORS.toml")]
-    pub(super) errors: PathBuf,
+    pub(super) errors: Option<PathBuf>,
+    #[command(flatten)]
+    pub(super) options: PassOptions,
+}
+
+/// The options of the compensation pass, each left out unless given (a check from
+/// `nccomp.toml` takes what the command line leaves out from the config).
+#[derive(clap::Args)]
+pub(super) struct PassOptions {
     /// Tool chain the program starts in on machines with several (e.g. `upper` or `lower`
     /// turret); the machine file's first by default. T words switch chains where the
     /// machine file lists each chain's `tools`.
@@ -60,25 +72,31 @@ pub(super) struct PassArgs {
     allow_limit_violations: bool,
     /// Split G1 moves whose compensated path strays more than this (mm) from the nominal
     /// path between block ends, by inserting blocks; `off` keeps one block out for every
-    /// block in (arcs aside).
-    #[arg(long, value_name = "MM|off", default_value = "0.001", value_parser = path_tolerance)]
-    tolerance: PathLimit,
-    /// The tool direction's tolerance along the path, in µrad.
-    #[arg(long, value_name = "URAD", default_value_t = 10.0)]
-    angular_tolerance: f64,
-    /// The programs' language: `auto` reads each program's from its file and text (a
-    /// Heidenhain program starts with a numbered `BEGIN PGM`; a Sinumerik program is a
-    /// `.mpf` or `.spf` file, or has DEF, TRAORI, CYCLE800, MSG, T="…" or another Siemens
-    /// instruction in its first 200 lines), `iso` G-code, `heidenhain` TNC conversational,
-    /// `sinumerik` Siemens 840D.
-    #[arg(long, value_name = "DIALECT", default_value = "auto")]
-    dialect: DialectArg,
+    /// block in (arcs aside). Default 0.001.
+    #[arg(long, value_name = "MM|off", value_parser = path_tolerance)]
+    tolerance: Option<PathLimit>,
+    /// The tool direction's tolerance along the path, in µrad. Default 10.
+    #[arg(long, value_name = "URAD")]
+    angular_tolerance: Option<f64>,
+    /// The programs' language: `auto` (the default) reads each program's from its file
+    /// and text (a Heidenhain program starts with a numbered `BEGIN PGM`; a Sinumerik
+    /// program is a `.mpf` or `.spf` file, or has DEF, TRAORI, CYCLE800, MSG, T="…" or
+    /// another Siemens instruction in its first 200 lines), `iso` G-code, `heidenhain` TNC
+    /// conversational, `sinumerik` Siemens 840D.
+    #[arg(long, value_name = "DIALECT")]
+    dialect: Option<DialectArg>,
     /// The block delete switch the program will run with: `on` skips blocks with `/`
     /// (they are copied unchanged), `off` runs them. Without it the output must be right
     /// in both states, and nccomp refuses a program whose optional blocks make that
     /// impossible.
     #[arg(long, value_name = "on|off", value_parser = on_off)]
     block_delete: Option<bool>,
+    /// A set-up for this job, layered over the machine file: work offsets (presets) and
+    /// tool lengths from nccomp's set-up file (.toml) or the control's tables (LinuxCNC
+    /// .var and .tbl, Heidenhain TOOL.T); repeat it for more, a later file's values over
+    /// an earlier's. The summary says which values were used (docs/file-formats.md).
+    #[arg(long, value_name = "FILE")]
+    setup: Vec<PathBuf>,
 }
 
 fn on_off(text: &str) -> Result<bool, String> {
@@ -129,16 +147,15 @@ fn path_tolerance(text: &str) -> Result<PathLimit, String> {
 pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
     let input = args.input.as_deref().unwrap_or(Path::new("-"));
     let output = (!args.check).then(|| args.output.as_deref().unwrap_or(Path::new("-")));
-    let [output] = destinations(
-        &[
-            ("the program", Some(input)),
-            ("the machine file", Some(&args.pass.machine)),
-            ("the error file", Some(&args.pass.errors)),
-        ],
-        [("-o", output)],
-    )?;
-    let machine = machine_file::load(&args.pass.machine)?;
-    let errors = error_file::load(&args.pass.errors, &machine)?;
+    let mut inputs = vec![("the program", Some(input))];
+    inputs.extend(args.pass.inputs());
+    let [output] = destinations(&inputs, [("-o", output)])?;
+    let Pass {
+        machine,
+        errors,
+        used,
+        ..
+    } = args.pass.load()?;
     let options = Options {
         threads: args.threads as usize,
         ..args.pass.options()?
@@ -252,6 +269,9 @@ pub(super) fn compensate(args: &CompensateArgs) -> crate::Result<Status> {
     };
     if !args.quiet {
         eprint(&format!("{name}: {summary}\n"))?;
+        if let Some(line) = crate::model::setup::summary_line(&used) {
+            eprint(&format!("{name}: {line}\n"))?;
+        }
     }
     Ok(status)
 }
@@ -276,29 +296,82 @@ fn gate(
     }
 }
 
+impl PassOptions {
+    /// What the command line gives, as settings to layer over a config's.
+    pub(super) fn settings(&self) -> Settings {
+        Settings {
+            tolerance: self.tolerance.map(|t| t.0),
+            angular_tolerance: self.angular_tolerance,
+            tool_chain: self.tool_chain.clone(),
+            hold: (!self.hold.is_empty()).then(|| self.hold.clone()),
+            allow_limit_violations: self.allow_limit_violations.then_some(true),
+            dialect: self.dialect.map(DialectArg::get),
+            block_delete: self.block_delete,
+            setup: (!self.setup.is_empty()).then(|| self.setup.clone()),
+            ..Settings::default()
+        }
+    }
+}
+
 impl PassArgs {
     pub(super) fn options(&self) -> crate::Result<Options> {
-        let v = self.angular_tolerance;
-        if !(v.is_finite() && v > 0.0) {
+        self.options.settings().options()
+    }
+
+    /// The machine (with the set-up's values in it), its error model, the error file's
+    /// name and the set-up values used.
+    pub(super) fn load(&self) -> crate::Result<Pass> {
+        load_pass(&self.machine, self.errors.as_deref(), &self.options.setup)
+    }
+
+    /// The input files, for [`super::files::destinations`]: an output must not be one.
+    pub(super) fn inputs(&self) -> Vec<(&'static str, Option<&Path>)> {
+        let mut inputs = vec![("the machine file", Some(self.machine.as_path()))];
+        if let Some(e) = &self.errors {
+            inputs.push(("the error file", Some(e.as_path())));
+        }
+        inputs.extend(
+            self.options
+                .setup
+                .iter()
+                .map(|s| ("a set-up file", Some(s.as_path()))),
+        );
+        inputs
+    }
+}
+
+/// A machine loaded for a pass.
+pub(super) struct Pass {
+    pub(super) machine: Machine,
+    pub(super) errors: ErrorModel,
+    pub(super) errors_path: PathBuf,
+    pub(super) used: Vec<Used>,
+}
+
+/// Load the machine file, lay the set-up files over it, and load the error file (given,
+/// or the one the machine file names).
+pub(super) fn load_pass(
+    machine: &Path,
+    errors: Option<&Path>,
+    setup: &[PathBuf],
+) -> crate::Result<Pass> {
+    let mut m = machine_file::load(machine)?;
+    let used = crate::model::setup::load_all(setup, &m)?.apply(&mut m)?;
+    let errors_path = match (errors, &m.errors_file) {
+        (Some(e), _) => e.to_path_buf(),
+        (None, Some(e)) => e.clone(),
+        (None, None) => {
             return Err(crate::Error::Usage(format!(
-                "--angular-tolerance {v}: expected a positive number of µrad"
+                "no error file: expected --errors FILE (-e), or `errors = \"…\"` in {} naming the machine's error file",
+                machine.display()
             )));
         }
-        Ok(Options {
-            tool_chain: self.tool_chain.clone(),
-            allow_limit_violations: self.allow_limit_violations,
-            hold: self.hold.clone(),
-            path: self
-                .tolerance
-                .0
-                .map(|mm| crate::kinematics::path::PathTolerance {
-                    position: mm,
-                    direction: v * 1e-6,
-                    ..Default::default()
-                }),
-            dialect: self.dialect.get(),
-            block_delete: self.block_delete,
-            ..Options::default()
-        })
-    }
+    };
+    let errors = error_file::load(&errors_path, &m)?;
+    Ok(Pass {
+        machine: m,
+        errors,
+        errors_path,
+        used,
+    })
 }

@@ -1,7 +1,6 @@
 //! `nccomp report`: the HTML report on one program.
 
 use super::files::{destinations, read_file, write_all};
-use crate::model::{error_file, machine_file};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -30,19 +29,17 @@ pub(super) struct ReportArgs {
 
 pub(super) fn report(args: &ReportArgs) -> crate::Result<()> {
     use crate::report;
-    let [Some(output)] = destinations(
-        &[
-            ("the machine file", Some(&args.pass.machine)),
-            ("the error file", Some(&args.pass.errors)),
-            ("the program", Some(&args.input)),
-        ],
-        [("-o", Some(&args.output))],
-    )?
-    else {
+    let mut inputs = args.pass.inputs();
+    inputs.push(("the program", Some(&args.input)));
+    let [Some(output)] = destinations(&inputs, [("-o", Some(&args.output))])? else {
         return Err(crate::Error::Usage("report needs -o REPORT.html".into()));
     };
-    let machine = machine_file::load(&args.pass.machine)?;
-    let errors = error_file::load(&args.pass.errors, &machine)?;
+    let super::compensate::Pass {
+        machine,
+        errors,
+        errors_path,
+        used,
+    } = args.pass.load()?;
     let (src, name) = read_file(&args.input)?;
     let options = report::Options {
         compensate: args.pass.options()?,
@@ -52,7 +49,7 @@ pub(super) fn report(args: &ReportArgs) -> crate::Result<()> {
     let names = report::Names {
         program: name,
         machine: args.pass.machine.display().to_string(),
-        errors: args.pass.errors.display().to_string(),
+        errors: errors_path.display().to_string(),
     };
     let program = names.program.clone();
     let r = report::build(&machine, &errors, &src, names, &options)?;
@@ -60,6 +57,9 @@ pub(super) fn report(args: &ReportArgs) -> crate::Result<()> {
     write_all(&[(&output, html.as_bytes())])?;
     if !args.quiet {
         super::files::eprint(&format!("{program}: {}\n", r.summary))?;
+        if let Some(line) = crate::model::setup::summary_line(&used) {
+            super::files::eprint(&format!("{program}: {line}\n"))?;
+        }
     }
     Ok(())
 }

@@ -6,7 +6,6 @@ use super::files::print;
 use crate::check::Status;
 use crate::compensate::Compensator;
 use crate::diag::{Severity, use_color};
-use crate::model::{error_file, machine_file};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -32,8 +31,12 @@ enum VerifyFormat {
 }
 
 pub(super) fn verify(args: &VerifyArgs) -> crate::Result<Status> {
-    let machine = machine_file::load(&args.pass.machine)?;
-    let errors = error_file::load(&args.pass.errors, &machine)?;
+    let super::compensate::Pass {
+        machine,
+        errors,
+        used,
+        ..
+    } = args.pass.load()?;
     let comp = Compensator::new(&machine, &errors, args.pass.options()?)?;
     // Both programs are streamed from their files (read again for each reading).
     let original_name = args.original.display().to_string();
@@ -68,6 +71,9 @@ pub(super) fn verify(args: &VerifyArgs) -> crate::Result<Status> {
         VerifyFormat::Human => {
             let color = use_color(&std::io::stdout());
             let mut out = String::new();
+            if let Some(line) = crate::model::setup::summary_line(&used) {
+                out.push_str(&format!("{written_name}: {line}\n"));
+            }
             for d in &verdict.findings {
                 out.push_str(&d.render_as(Severity::Error, color));
                 out.push('\n');
@@ -93,6 +99,7 @@ pub(super) fn verify(args: &VerifyArgs) -> crate::Result<Status> {
                 "compensated": written_name,
                 "status": if verdict.passed() { "clean" } else { "findings" },
                 "exit_code": status.exit_code(),
+                "setup": used,
                 "block_delete_states": verdict.states.iter().map(|&on| if on { "on" } else { "off" }).collect::<Vec<_>>(),
                 "moves": verdict.moves,
                 "written_moves": verdict.written_moves,

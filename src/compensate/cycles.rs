@@ -460,7 +460,7 @@ impl Mode for CycleMode {
         if self.frame.is_some() {
             if state.zero != [0.0; 3] {
                 return refuse(
-                    "under a tilted working plane with a program zero other than the machine file's geometry zero (a work offset or G52 shift)",
+                    "under a tilted working plane with a program zero other than the machine file's geometry zero (a work offset, a set-up's preset or a G52 shift)",
                 );
             }
             if state.modal.diameter {

@@ -395,10 +395,7 @@ impl Pass<'_> {
         };
         // Program zero in machine coordinates: the offset in force, the external offset
         // and the local shift (the geometry's offset and `shift` from it).
-        let geometry = table
-            .geometry
-            .and_then(|g| table.values.get(&g).copied())
-            .unwrap_or([0.0; 3]);
+        let geometry = table.geometry_zero;
         let shift = modal.shift.unwrap_or([0.0; 3]);
         let mut known = 0;
         for v in 0..self.kin.len() {

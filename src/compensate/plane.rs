@@ -38,7 +38,7 @@ impl Pass<'_> {
             return Ok(());
         };
         if state.zero != [0.0; 3] {
-            return Err(cx.refuse(col, "G53.1 with a program zero other than the machine file's geometry zero (a work offset or G52 shift) cannot be compensated: the plane's origin would need the shift in the part frame (expected the work offset the geometry is given in, `geometry` of [work_offsets])".into()));
+            return Err(cx.refuse(col, "G53.1 with a program zero other than the machine file's geometry zero (a work offset, a set-up's preset or a G52 shift) cannot be compensated: the plane's origin would need the shift in the part frame (expected the work offset the geometry is given in, `geometry` of [work_offsets])".into()));
         }
         let rotary = self.rotary_mask();
         if rotary == 0 {

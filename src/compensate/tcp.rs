@@ -201,7 +201,7 @@ impl Mode for TcpMode {
         self.tips = tips;
         self.frame = state.modal.working_plane;
         if state.zero != [0.0; 3] {
-            return Err(cx.refuse(first, format!("{code} with a program zero other than the machine file's geometry zero (a work offset or G52 shift) cannot be compensated: the tip words would need the shift in the part frame (expected the work offset the geometry is given in, `geometry` of [work_offsets])")));
+            return Err(cx.refuse(first, format!("{code} with a program zero other than the machine file's geometry zero (a work offset, a set-up's preset or a G52 shift) cannot be compensated: the tip words would need the shift in the part frame (expected the work offset the geometry is given in, `geometry` of [work_offsets])")));
         }
         if self.frame.is_some() {
             pass.plane_checks(cx, state, &tips)?;

@@ -150,6 +150,7 @@ fn iso_machine() -> Machine {
         inch_default: false,
         block_delete: None,
         start: Vec::new(),
+        errors_file: None,
         cycle_r_initial: false,
         work_offsets: None,
     }

@@ -71,6 +71,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
             "cycles",
             "block_delete",
             "start",
+            "errors",
         ],
         "the machine file",
     )?;
@@ -307,6 +308,21 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         Some(v) => start(&doc, v, &axes)?,
         None => Vec::new(),
     };
+    // Relative to the machine file, as a path in it is read by whoever wrote it there.
+    let errors_file = match root.get("errors") {
+        Some(v) => {
+            let name = doc.string(v, "`errors`, the machine's error file")?;
+            if name.is_empty() {
+                return Err(doc.err(
+                    v.span(),
+                    "an empty `errors`: expected the path of the machine's error file, relative to the machine file",
+                ));
+            }
+            let dir = Path::new(path).parent().unwrap_or(Path::new(""));
+            Some(dir.join(name))
+        }
+        None => None,
+    };
     Ok(Machine {
         name,
         axes,
@@ -322,6 +338,7 @@ pub fn parse(text: &str, path: &str) -> Result<Machine> {
         cycle_r_initial,
         block_delete,
         start,
+        errors_file,
     })
 }
 
@@ -692,6 +709,10 @@ fn work_offsets(doc: &Doc, v: &Spanned<DeValue>) -> Result<WorkOffsets> {
             ),
         ));
     }
+    offsets.geometry_zero = offsets
+        .geometry
+        .and_then(|g| offsets.values.get(&g).copied())
+        .unwrap_or([0.0; 3]);
     Ok(offsets)
 }
 

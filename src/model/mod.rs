@@ -7,6 +7,7 @@
 
 pub mod error_file;
 pub mod machine_file;
+pub mod setup;
 pub mod table;
 pub mod terms;
 
@@ -231,6 +232,9 @@ pub struct Machine {
     /// index and value (mm, degrees). Axes not given stand where the program has not
     /// said: not known until it sets them.
     pub start: Vec<(usize, f64)>,
+    /// The error file the machine file names (`errors`, relative to the machine file):
+    /// used when no error file is given on the command line.
+    pub errors_file: Option<std::path::PathBuf>,
 }
 
 /// The work offset table of a controller: where each program zero lies, in machine
@@ -242,6 +246,10 @@ pub struct WorkOffsets {
     pub geometry: Option<i64>,
     /// Values by offset code.
     pub values: BTreeMap<i64, [f64; 3]>,
+    /// Where the geometry's program zero lies in machine coordinates: the machine file's
+    /// value of the `geometry` offset (zero for machine zero). Kept apart from `values`
+    /// because a set-up that moves that offset moves the part, not the machine's axes.
+    pub geometry_zero: [f64; 3],
     /// Heidenhain's M92 reference: the point, in machine coordinates, that M92 words are
     /// given from (the machine builder's, such as the tool change position).
     pub m92: Option<[f64; 3]>,

@@ -408,10 +408,7 @@ impl Modal {
         // At power-on a Fanuc control is in G54.
         let active = value(self.work_offset.unwrap_or(540))?;
         let external = value(0).unwrap_or([0.0; 3]);
-        let geometry = table
-            .geometry
-            .and_then(|g| table.values.get(&g).copied())
-            .unwrap_or([0.0; 3]);
+        let geometry = table.geometry_zero;
         Some(std::array::from_fn(|c| {
             active[c] + external[c] + self.local_shift[c] - geometry[c]
         }))

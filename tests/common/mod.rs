@@ -63,6 +63,7 @@ pub fn ac_trunnion(a_point: [f64; 3], c_point: [f64; 3]) -> Machine {
         cycle_r_initial: false,
         block_delete: None,
         start: Vec::new(),
+        errors_file: None,
         work_offsets: None,
     }
 }
@@ -93,6 +94,7 @@ pub fn head_head(pivot: f64) -> Machine {
         cycle_r_initial: false,
         block_delete: None,
         start: Vec::new(),
+        errors_file: None,
         work_offsets: None,
     }
 }
