@@ -43,6 +43,23 @@ impl Status {
     }
 }
 
+/// `--max-error`'s default (mm).
+pub const DEFAULT_MAX_ERROR_MM: f64 = 0.010;
+
+/// `--max-angle`'s default where a command has one (`report`; µrad): the tilt that moves
+/// the tip of a 100 mm tool by 10 µm, `--max-error`'s default.
+pub const DEFAULT_MAX_ANGLE_URAD: f64 = 100.0;
+
+/// The direction error after compensation that the thresholds judge: the largest of the
+/// compensated blocks' and the singular poses' (where the held axis leaves it).
+pub fn judged_direction(summary: &Summary) -> Extreme {
+    if summary.singular_direction.value > summary.after_direction.value {
+        summary.singular_direction
+    } else {
+        summary.after_direction
+    }
+}
+
 /// What turns a prediction into a failure.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Thresholds {
@@ -56,7 +73,7 @@ pub struct Thresholds {
 impl Default for Thresholds {
     fn default() -> Self {
         Thresholds {
-            max_error_mm: 0.010,
+            max_error_mm: DEFAULT_MAX_ERROR_MM,
             max_angle_urad: None,
         }
     }
@@ -315,11 +332,7 @@ impl<'m> Checker<'m> {
         };
         // Singular poses keep a direction error the pass cannot remove: it is reported on its
         // own (as `compensate` reports it) and judged with the rest.
-        let after_direction = if summary.singular_direction.value > summary.after_direction.value {
-            summary.singular_direction
-        } else {
-            summary.after_direction
-        };
+        let after_direction = judged_direction(&summary);
         let after = Errors {
             tip_mm: Peak::new(summary.after_position, 1.0, None),
             direction_urad: Peak::new(summary.after_direction, 1e6, None),

@@ -14,7 +14,7 @@ pub(super) struct CheckArgs {
     #[arg(value_name = "PROGRAM", required = true)]
     programs: Vec<String>,
     /// Largest predicted tip error after compensation, mm.
-    #[arg(long, value_name = "MM", default_value_t = 0.010)]
+    #[arg(long, value_name = "MM", default_value_t = crate::check::DEFAULT_MAX_ERROR_MM)]
     max_error: f64,
     /// Largest predicted tool direction error after compensation, µrad (by default the
     /// direction error is reported, not judged).

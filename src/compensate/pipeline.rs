@@ -624,6 +624,11 @@ impl Pass<'_> {
         if state.modal.working_plane.is_some_and(|p| !p.rotation_only) {
             summary.plane_blocks += 1;
             summary.plane_direction.update(ad, line);
+            if let Some(s) = summary.trace.as_mut().and_then(|t| t.last_mut())
+                && s.line == line
+            {
+                s.plane = true;
+            }
         }
         (ap, ad)
     }
