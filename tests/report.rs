@@ -112,6 +112,14 @@ fn the_map_of_a_constant_positioning_error_is_uniform_along_its_axis() {
             assert!((a[0] - 0.010).abs() < 1e-12 && a[1].abs() < 1e-12, "{a:?}");
         }
     }
+    // No angular error: the direction plot is a sentence, not a flat line at 1e-4 µrad;
+    // the corrections of the one kind of axis are drawn.
+    let html = r.html().unwrap();
+    assert!(
+        html.contains("predicts no tool-direction error for this program"),
+        "{html}"
+    );
+    assert!(!html.contains("predicts no tool-tip error"));
     // A level picked in --at draws one panel; a grid axis in --at is refused.
     let one = Options {
         at: vec!["Z=5".into()],
@@ -629,4 +637,22 @@ fn cli_refuses_bad_requests_and_writes_nothing() {
         assert!(stderr.contains(message), "{extra:?}: {stderr}");
         assert!(!page.exists(), "{extra:?}");
     }
+}
+
+#[test]
+fn a_zero_model_is_not_checked_and_draws_no_flat_map() {
+    let machine = machine_file::load(Path::new(MACHINE)).unwrap();
+    let errors = error_file::parse("", "zero.toml", &machine).unwrap();
+    let src = std::fs::read(PROGRAM).unwrap();
+    let options = Options {
+        grid: 3,
+        ..Options::default()
+    };
+    let r = report::build(&machine, &errors, &src, Names::default(), &options).unwrap();
+    let html = r.html().unwrap();
+    assert!(html.contains("<b>NOT CHECKED</b>"), "{html}");
+    assert!(html.contains("the error model is zero"));
+    assert!(html.contains("The error model predicts no tip error at A = 0°, C = 0°"));
+    // Nothing flat is drawn: no colour bar, no cell.
+    assert!(!html.contains(">µm<"));
 }

@@ -26,6 +26,8 @@ pub struct Limit {
 const PLANE_SHADE: RGBColor = RGBColor(225, 225, 225);
 const SINGULAR_SHADE: RGBColor = RGBColor(232, 222, 245);
 const LIMIT: RGBColor = RGBColor(20, 20, 20);
+/// Below this (µm or µrad) at every line, before and after, there is nothing to plot.
+const FLAT: f64 = 1e-3;
 
 /// Runs of consecutive samples for which `held` is true, as line ranges.
 fn runs(samples: &[Sample], held: impl Fn(&Sample) -> bool) -> Vec<(usize, usize)> {
@@ -122,11 +124,24 @@ pub fn along_program(
     let clamp = |v: &[(f64, f64)]| -> Vec<(f64, f64)> {
         v.iter().map(|&(x, y)| (x, y.max(bottom))).collect()
     };
-    let mut header = vec![if max > 0.0 {
-        title.to_string()
-    } else {
-        format!("{title}: zero at every line")
-    }];
+    if !samples.is_empty() && max < FLAT {
+        // A plot of nothing on a scale of thousandths says nothing: a sentence does.
+        let what = match what {
+            Along::Tip => "tool-tip",
+            Along::Direction => "tool-direction",
+        };
+        let text = format!(
+            "{title}: under {} {unit} at every line, without compensation and with it: the \
+             error model predicts no {what} error for this program, and there is nothing to \
+             correct.",
+            short(FLAT)
+        );
+        let lines = wrap(&text, 130);
+        return svg((1100, 12 + 22 * lines.len() as u32), |root| {
+            notes(root, &lines, (12, 8), 16)
+        });
+    }
+    let mut header = vec![title.to_string()];
     let held = match what {
         Along::Direction => held_notes(samples),
         Along::Tip => Vec::new(),

@@ -1,17 +1,40 @@
 //! A volumetric error map: panels over two linear axes, a colour bar on round ticks.
 
 use super::super::volume::{Map, Panel};
-use super::{Area, DrawResult, NOTE, font, ramp, round_scale, short, svg};
+use super::{Area, DrawResult, NOTE, font, notes, ramp, round_scale, short, svg};
 use plotters::prelude::*;
 
 const SIDE: u32 = 380;
 const BAR: u32 = 110;
+/// Below this largest error (mm) a map is one colour: it is replaced by a sentence.
+const FLAT_MM: f64 = 1e-6;
 
 /// One map: a panel per level of the third linear axis, coloured by the length of the tip
 /// error on a round scale from 0 to at least `max` (mm, the largest of all maps, so that
 /// they compare), with arrows for its components along the grid axes, the part's extent
 /// as a dashed box, and a colour bar.
 pub fn map(map: &Map, max: f64) -> Result<String, String> {
+    if max.is_nan() || max < FLAT_MM {
+        // One colour on a scale of nothing: a sentence says it.
+        let at = if map.label.is_empty() {
+            String::new()
+        } else {
+            format!(" at {}", map.label)
+        };
+        return svg((1100, 40), |root| {
+            notes(
+                root,
+                &[format!(
+                    "The error model predicts no tip error{at} over this grid of {} and {} (under {} µm everywhere).",
+                    map.u.name,
+                    map.v.name,
+                    short(FLAT_MM * 1e3)
+                )],
+                (12, 10),
+                16,
+            )
+        });
+    }
     let (top, step) = round_scale(max * 1e3);
     let scale = top / 1e3;
     let width = SIDE * map.panels.len() as u32 + BAR;
