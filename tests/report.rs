@@ -452,10 +452,14 @@ fn assert_readable(r: &Rendered, maps: usize) {
     // The colour bar's ticks are round: 1, 2 or 5 × 10ⁿ steps from 0.
     for k in 0..maps {
         let text = r.figure_text(&format!("map-{k}"));
-        let ticks: Vec<f64> = text
-            .split_whitespace()
-            .skip_while(|t| *t != "µm")
-            .skip(1)
+        // The colour bar is drawn last: its unit, then its ticks.
+        let words: Vec<&str> = text.split_whitespace().collect();
+        let unit = words
+            .iter()
+            .rposition(|t| *t == "µm")
+            .unwrap_or(words.len());
+        let ticks: Vec<f64> = words[(unit + 1).min(words.len())..]
+            .iter()
             .map_while(|t| t.parse().ok())
             .collect();
         assert!(
@@ -520,7 +524,8 @@ fn the_feature_workpiece_report_reads_at_1400_px() {
     }
     // The parts of the maps: a dashed box per panel, labelled as the part's levels.
     let map = r.figure_text("map-0");
-    assert!(map.contains("dashed box: the part"), "{map}");
+    assert!(map.contains("Dashed box: the part"), "{map}");
+    assert!(map.contains("Over the part's grid points"), "{map}");
     assert!(map.contains("(lowest of the part)") && map.contains("(highest of the part)"));
 }
 

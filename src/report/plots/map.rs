@@ -1,7 +1,7 @@
 //! A volumetric error map: panels over two linear axes, a colour bar on round ticks.
 
 use super::super::volume::{Map, Panel};
-use super::{Area, DrawResult, NOTE, font, notes, ramp, round_scale, short, svg};
+use super::{Area, DrawResult, font, notes, ramp, round_scale, short, svg};
 use plotters::prelude::*;
 
 const SIDE: u32 = 380;
@@ -37,20 +37,36 @@ pub fn map(map: &Map, max: f64) -> Result<String, String> {
     }
     let (top, step) = round_scale(max * 1e3);
     let scale = top / 1e3;
-    let width = SIDE * map.panels.len() as u32 + BAR;
-    svg((width, SIDE + 70), |root| {
-        let longest = map
-            .panels
-            .iter()
-            .flat_map(|p| p.along.iter().map(|a| a[0].hypot(a[1])))
-            .filter(|v| v.is_finite())
-            .fold(0.0, f64::max);
-        let at = if map.label.is_empty() {
-            String::new()
-        } else {
-            format!("{}: ", map.label)
-        };
-        let (header, body) = root.split_vertically(60);
+    // At least as wide as the other plots, so that the notes fit whatever the panels.
+    let width = (SIDE * map.panels.len() as u32 + BAR).max(1100);
+    let longest = map
+        .panels
+        .iter()
+        .flat_map(|p| p.along.iter().map(|a| a[0].hypot(a[1])))
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let at = if map.label.is_empty() {
+        String::new()
+    } else {
+        format!("{}: ", map.label)
+    };
+    let mut text = format!(
+        "Colour: its length; arrows: its {}–{} components (longest {} µm).",
+        map.u.name,
+        map.v.name,
+        short(longest * 1e3)
+    );
+    if let Some(over) = part_range(map) {
+        text.push_str(&format!(
+            " Dashed box: the part (the span of {} and {} in the feed moves). {over}",
+            map.u.name, map.v.name
+        ));
+    }
+    // 13 px notes: about 5.8 px a character.
+    let lines = super::wrap(&text, (width as usize - 24) * 10 / 58);
+    let head = 34 + 17 * lines.len() as u32 + 6;
+    svg((width, SIDE + 10 + head), |root| {
+        let (header, body) = root.split_vertically(head);
         header.draw(&Text::new(
             format!(
                 "{at}tip error without compensation over {} and {}",
@@ -59,24 +75,7 @@ pub fn map(map: &Map, max: f64) -> Result<String, String> {
             (12, 10),
             font(17),
         ))?;
-        let part = if map.part.is_some() {
-            format!(
-                "; dashed box: the part (the span of {} and {} in the feed moves)",
-                map.u.name, map.v.name
-            )
-        } else {
-            String::new()
-        };
-        header.draw(&Text::new(
-            format!(
-                "colour: its length; arrows: its {}–{} components (longest {} µm){part}",
-                map.u.name,
-                map.v.name,
-                short(longest * 1e3)
-            ),
-            (12, 34),
-            font(13).color(&NOTE),
-        ))?;
+        notes(&header, &lines, (12, 34), 13)?;
         let (panels, legend) = body.split_horizontally(SIDE * map.panels.len() as u32);
         let areas = panels.split_evenly((1, map.panels.len()));
         for (area, panel) in areas.iter().zip(&map.panels) {
@@ -176,6 +175,40 @@ fn draw_panel(
         chart.draw_series(DashedLineSeries::new(outline, 8, 6, WHITE.stroke_width(2)))?;
     }
     Ok(())
+}
+
+/// The error's range over the part's box and over the whole grid, all panels: where on
+/// the table the part sits against the error field.
+fn part_range(map: &Map) -> Option<String> {
+    let [[a, b], [c, d]] = map.part?;
+    let n = map.u.positions.len();
+    let (mut inside, mut all) = ((f64::INFINITY, 0.0f64), (f64::INFINITY, 0.0f64));
+    for p in &map.panels {
+        for (k, &m) in p.magnitude.iter().enumerate() {
+            if !m.is_finite() {
+                continue;
+            }
+            let (u, v) = (
+                map.u.positions[k % n],
+                map.v.positions[(k / n).min(map.v.positions.len() - 1)],
+            );
+            all = (all.0.min(m), all.1.max(m));
+            if (a..=b).contains(&u) && (c..=d).contains(&v) {
+                inside = (inside.0.min(m), inside.1.max(m));
+            }
+        }
+    }
+    let um = |v: f64| short(v * 1e3);
+    let whole = format!("{} to {} µm over the whole map", um(all.0), um(all.1));
+    Some(if inside.0.is_finite() {
+        format!(
+            "Over the part's grid points {} to {} µm, {whole}.",
+            um(inside.0),
+            um(inside.1)
+        )
+    } else {
+        format!("{whole}; no grid point falls in the part's box.")
+    })
 }
 
 /// The colour bar, 0 … `top` µm, ticks every `step` µm (round values).
