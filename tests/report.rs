@@ -87,17 +87,24 @@ fn the_map_of_a_constant_positioning_error_is_uniform_along_its_axis() {
         grid: 5,
         ..Options::default()
     };
-    let r = report::build(&machine, &errors, b"G0 X10 Y10 Z0\n", names, &options).unwrap();
+    // The grid spans the program's working volume with a margin of a tenth of its larger
+    // span (at least 10 mm), within the travel; the levels are the part's (its feed moves,
+    // from where each starts to where it ends) lowest, middle and highest Z.
+    let program = b"G0 X-50 Y0 Z5\nG1 X50 Y40 Z-5 F100\nG0 Z10\n";
+    let r = report::build(&machine, &errors, program, names, &options).unwrap();
     assert_eq!(r.maps.len(), 1);
     let map = &r.maps[0];
-    assert_eq!(map.u.positions, vec![-100.0, -50.0, 0.0, 50.0, 100.0]);
+    assert_eq!(map.u.positions, vec![-60.0, -30.0, 0.0, 30.0, 60.0]);
     assert_eq!(map.v.positions, vec![0.0, 12.5, 25.0, 37.5, 50.0]);
+    assert_eq!(map.part, Some([[-50.0, 50.0], [0.0, 40.0]]));
     let levels: Vec<f64> = map
         .panels
         .iter()
         .map(|p| p.level.clone().unwrap().1)
         .collect();
-    assert_eq!(levels, vec![-10.0, 0.0, 10.0]);
+    assert_eq!(levels, vec![-5.0, 0.0, 5.0]);
+    let roles: Vec<_> = map.panels.iter().map(|p| p.role).collect();
+    assert_eq!(roles, vec![Some("lowest"), Some("middle"), Some("highest")]);
     for p in &map.panels {
         assert_eq!(p.magnitude.len(), 25);
         for (m, a) in p.magnitude.iter().zip(&p.along) {
@@ -105,6 +112,14 @@ fn the_map_of_a_constant_positioning_error_is_uniform_along_its_axis() {
             assert!((a[0] - 0.010).abs() < 1e-12 && a[1].abs() < 1e-12, "{a:?}");
         }
     }
+    // No angular error: the direction plot is a sentence, not a flat line at 1e-4 µrad;
+    // the corrections of the one kind of axis are drawn.
+    let html = r.html().unwrap();
+    assert!(
+        html.contains("predicts no tool-direction error for this program"),
+        "{html}"
+    );
+    assert!(!html.contains("predicts no tool-tip error"));
     // A level picked in --at draws one panel; a grid axis in --at is refused.
     let one = Options {
         at: vec!["Z=5".into()],
@@ -237,20 +252,88 @@ fn close(a: [u8; 3], b: plotters::style::RGBColor, tolerance: u8) -> bool {
         && a[2].abs_diff(b.2) <= tolerance
 }
 
-#[test]
-fn the_report_renders_its_plots_in_headless_chromium() {
-    let Some(browser) = chromium() else {
-        skip::skip(
-            "chromium is not installed",
-            "install Debian's `chromium` (.ci/run does) or set NCCOMP_CHROMIUM to a Chromium binary",
-        );
-        return;
-    };
+/// The page width the report is read at (issue 36: "at 1400 px wide").
+const WIDTH: usize = 1400;
+
+/// A page rendered in headless Chromium: the DOM after the page's own script, and the
+/// screenshot's pixels.
+struct Rendered {
+    dom: String,
+    /// Pixel count per colour of the screenshot, greys apart.
+    histogram: HashMap<[u8; 3], usize>,
+    white: usize,
+    grey: usize,
+    height: usize,
+}
+
+impl Rendered {
+    /// The value of the page's `<body data-NAME="…">`.
+    fn marker(&self, name: &str) -> &str {
+        self.dom
+            .split(&format!("data-{name}=\""))
+            .nth(1)
+            .and_then(|s| s.split('"').next())
+            .unwrap_or_else(|| {
+                panic!(
+                    "the page's script left no data-{name}: {}",
+                    &self.dom[..self.dom.len().min(400)]
+                )
+            })
+    }
+
+    /// Drawn SVG elements with a non-zero box, per figure.
+    fn counts(&self) -> HashMap<String, usize> {
+        self.marker("rendered")
+            .split_whitespace()
+            .filter_map(|p| p.split_once(':'))
+            .map(|(id, n)| (id.to_string(), n.parse().unwrap()))
+            .collect()
+    }
+
+    /// Pixels within `tolerance` of `colour`.
+    fn count(&self, colour: plotters::style::RGBColor, tolerance: u8) -> usize {
+        self.histogram
+            .iter()
+            .filter(|(c, _)| close(**c, colour, tolerance))
+            .map(|(_, n)| n)
+            .sum()
+    }
+
+    /// The text of the figure `id` (its SVG's text elements, in order).
+    fn figure_text(&self, id: &str) -> String {
+        let start = self
+            .dom
+            .find(&format!("<figure id=\"{id}\""))
+            .unwrap_or_else(|| panic!("no figure {id}"));
+        let figure = &self.dom[start..];
+        let figure = &figure[..figure.find("</figure>").unwrap_or(figure.len())];
+        figure
+            .split("<text")
+            .skip(1)
+            .filter_map(|t| t.split_once('>').map(|(_, rest)| rest))
+            .filter_map(|t| t.split("</text>").next())
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+/// Write the report of `program` with `extra` options, render it in Chromium at `WIDTH`
+/// pixels wide, and keep the screenshot as target/tmp/`name`.png.
+fn render(browser: &Path, program: &str, extra: &[&str], name: &str) -> Rendered {
     let dir = tempfile::tempdir().unwrap();
     let page = dir.path().join("report.html");
     let out = Command::new(env!("CARGO_BIN_EXE_nccomp"))
-        .args(["report", "--machine", MACHINE, "--errors", ERRORS, PROGRAM])
-        .args(["--at", "A=0,C=0", "--at", "A=-90,C=90", "--grid", "9", "-o"])
+        .args([
+            "report",
+            "-q",
+            "--machine",
+            MACHINE,
+            "--errors",
+            ERRORS,
+            program,
+        ])
+        .args(extra)
+        .arg("-o")
         .arg(&page)
         .output()
         .unwrap();
@@ -259,61 +342,32 @@ fn the_report_renders_its_plots_in_headless_chromium() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    render_page(browser, &page, name)
+}
 
-    // One browser run: the DOM after the page's own script, and a screenshot.
-    let (w, h) = (1280usize, 4200usize);
+fn render_page(browser: &Path, page: &Path, name: &str) -> Rendered {
+    let dir = tempfile::tempdir().unwrap();
+    // Tall enough for the whole page: the screenshot is of the window.
+    let h = 5200usize;
     let shot = dir.path().join("report.png");
     let dom = run_chromium(
-        &browser,
+        browser,
         dir.path(),
-        &page,
+        page,
         &[
             "--dump-dom".into(),
             format!("--screenshot={}", shot.display()),
-            format!("--window-size={w},{h}"),
+            format!("--window-size={WIDTH},{h}"),
         ],
     );
     let dom = String::from_utf8(dom).unwrap();
-
-    // The script's count of drawn elements with a non-zero box, per figure.
-    let marker = dom
-        .split("data-rendered=\"")
-        .nth(1)
-        .and_then(|s| s.split('"').next())
-        .unwrap_or_else(|| {
-            panic!(
-                "the page's script left no marker: {}",
-                &dom[..dom.len().min(400)]
-            )
-        });
-    let counts: HashMap<&str, usize> = marker
-        .split_whitespace()
-        .filter_map(|p| p.split_once(':'))
-        .map(|(id, n)| (id, n.parse().unwrap()))
-        .collect();
-    for (id, least) in [
-        ("tip-error", 20),
-        ("direction-error", 20),
-        ("corrections", 30),
-        // Three panels of 9 × 9 cells, and the colour bar.
-        ("map-0", 3 * 81 + 60),
-        ("map-1", 3 * 81 + 60),
-    ] {
-        let n = counts.get(id).copied().unwrap_or(0);
-        assert!(
-            n >= least,
-            "figure {id}: {n} drawn elements, expected at least {least} ({marker})"
-        );
-    }
-
-    // The screenshot: the plots' colours must be on it.
     let bytes = std::fs::read(&shot).expect("chromium wrote no screenshot");
     let mut reader = png::Decoder::new(std::io::Cursor::new(bytes))
         .read_info()
         .unwrap();
     let mut buf = vec![0; reader.output_buffer_size().unwrap()];
     let info = reader.next_frame(&mut buf).unwrap();
-    assert_eq!((info.width as usize, info.height as usize), (w, h));
+    assert_eq!((info.width as usize, info.height as usize), (WIDTH, h));
     let channels = match info.color_type {
         png::ColorType::Rgb => 3,
         png::ColorType::Rgba => 4,
@@ -331,41 +385,221 @@ fn the_report_renders_its_plots_in_headless_chromium() {
             *histogram.entry([px[0], px[1], px[2]]).or_default() += 1;
         }
     }
-    let count = |colour: plotters::style::RGBColor| -> usize {
-        histogram
-            .iter()
-            .filter(|(c, _)| close(**c, colour, 8))
-            .map(|(_, n)| n)
-            .sum()
-    };
-    assert!(
-        white < w * h * 9 / 10,
-        "the page is nearly blank: {white} white pixels"
+    // Keep the screenshot where a person can look at it.
+    let keep = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("{name}.png"));
+    std::fs::copy(&shot, &keep).unwrap();
+    eprintln!("screenshot: {}", keep.display());
+    Rendered {
+        dom,
+        histogram,
+        white,
+        grey,
+        height: h,
+    }
+}
+
+/// What every page must show: nothing wider than the window or scrolling sideways, the
+/// pass/fail line with both thresholds, every plot drawn, the lines before and after
+/// compensation and the map's colours on the screenshot.
+fn assert_readable(r: &Rendered, maps: usize) {
+    assert_eq!(
+        r.marker("overflow"),
+        "none",
+        "elements wider than {WIDTH} px or scrolling sideways"
     );
-    assert!(grey < w * h, "the page has no colour at all");
-    let (before, after) = (count(plots::BEFORE), count(plots::AFTER));
+    assert!(
+        r.dom.contains("<div class=\"verdict ") && r.dom.contains("--max-error 10 µm"),
+        "no pass/fail line"
+    );
+    assert!(r.dom.contains("--max-angle 100 µrad"), "no --max-angle");
+    let counts = r.counts();
+    let mut least = vec![
+        ("tip-error".to_string(), 20),
+        ("direction-error".to_string(), 20),
+        ("corrections".to_string(), 30),
+    ];
+    // Panels of at least 9 × 9 cells, and the colour bar.
+    least.extend((0..maps).map(|k| (format!("map-{k}"), 81 + 60)));
+    for (id, least) in least {
+        let n = counts.get(&id).copied().unwrap_or(0);
+        assert!(
+            n >= least,
+            "figure {id}: {n} drawn elements, expected at least {least} ({counts:?})"
+        );
+    }
+    let w = WIDTH;
+    assert!(
+        r.white < w * r.height * 9 / 10,
+        "the page is nearly blank: {} white pixels",
+        r.white
+    );
+    assert!(r.grey < w * r.height, "the page has no colour at all");
+    let (before, after) = (r.count(plots::BEFORE, 8), r.count(plots::AFTER, 8));
     assert!(
         before > 1500,
         "the lines before compensation: {before} pixels"
     );
     assert!(after > 1500, "the lines after compensation: {after} pixels");
-    for (k, colour) in plots::AXIS_COLOURS.iter().take(3).enumerate() {
-        let n = count(*colour);
-        assert!(n > 500, "the correction of axis {k}: {n} pixels");
-    }
-    // The colour maps: many solid cells of distinct colours of the ramp.
     let ramp: Vec<_> = (0..=512)
         .map(|k| plots::ramp(f64::from(k) / 512.0))
         .collect();
-    let cells = histogram
+    let cells = r
+        .histogram
         .iter()
-        .filter(|(c, n)| **n >= 150 && ramp.iter().any(|r| close(**c, *r, 2)))
+        .filter(|(c, n)| **n >= 150 && ramp.iter().any(|q| close(**c, *q, 2)))
         .count();
-    assert!(cells >= 20, "{cells} colours of the map's ramp fill cells");
-    // Keep the screenshot where a person can look at it.
-    let keep = Path::new(env!("CARGO_TARGET_TMPDIR")).join("report-screenshot.png");
-    std::fs::copy(&shot, &keep).unwrap();
-    eprintln!("screenshot: {}", keep.display());
+    assert!(cells >= 10, "{cells} colours of the map's ramp fill cells");
+    // The colour bar's ticks are round: 1, 2 or 5 × 10ⁿ steps from 0.
+    for k in 0..maps {
+        let text = r.figure_text(&format!("map-{k}"));
+        // The colour bar is drawn last: its unit, then its ticks.
+        let words: Vec<&str> = text.split_whitespace().collect();
+        let unit = words
+            .iter()
+            .rposition(|t| *t == "µm")
+            .unwrap_or(words.len());
+        let ticks: Vec<f64> = words[(unit + 1).min(words.len())..]
+            .iter()
+            .map_while(|t| t.parse().ok())
+            .collect();
+        assert!(
+            ticks.len() >= 4,
+            "map-{k}: colour bar ticks {ticks:?} in {text}"
+        );
+        let step = ticks[1] - ticks[0];
+        let mantissa = step / 10f64.powf(step.log10().floor());
+        assert!(
+            [1.0, 2.0, 5.0].iter().any(|m| (mantissa - m).abs() < 1e-6) && ticks[0] == 0.0,
+            "map-{k}: colour bar ticks {ticks:?}"
+        );
+    }
+}
+
+/// The pass/fail line's background on the screenshot.
+const FAIL: plotters::style::RGBColor = plotters::style::RGBColor(0xfb, 0xe5, 0xe5);
+const PASS: plotters::style::RGBColor = plotters::style::RGBColor(0xe7, 0xf4, 0xe4);
+
+fn browser_or_skip() -> Option<PathBuf> {
+    let browser = chromium();
+    if browser.is_none() {
+        skip::skip(
+            "chromium is not installed",
+            "install Debian's `chromium` (.ci/run does) or set NCCOMP_CHROMIUM to a Chromium binary",
+        );
+    }
+    browser
+}
+
+#[test]
+fn the_feature_workpiece_report_reads_at_1400_px() {
+    let Some(browser) = browser_or_skip() else {
+        return;
+    };
+    let r = render(
+        &browser,
+        PROGRAM,
+        &["--at", "A=0,C=0", "--at", "A=-90,C=90", "--grid", "9"],
+        "report-feature-workpiece",
+    );
+    assert_readable(&r, 2);
+    // The singular poses hold C: the direction error there is above the default
+    // --max-angle, and the plot says why the lines meet there.
+    assert!(r.dom.contains("<b>FAIL</b>"), "no FAIL");
+    assert!(
+        r.count(FAIL, 0) > 20_000,
+        "no red pass/fail line on the screenshot"
+    );
+    assert!(
+        r.dom
+            .contains("a singular pose: the rotary axis along the tool is held")
+    );
+    let direction = r.figure_text("direction-error");
+    assert!(direction.contains("Violet band"), "{direction}");
+    assert!(direction.contains("at a singular pose"), "{direction}");
+    assert!(!direction.contains("Grey band"), "{direction}");
+    // Three axes' corrections drawn in their colours.
+    for (k, colour) in plots::AXIS_COLOURS.iter().take(3).enumerate() {
+        let n = r.count(*colour, 8);
+        assert!(n > 500, "the correction of axis {k}: {n} pixels");
+    }
+    // The parts of the maps: a dashed box per panel, labelled as the part's levels.
+    let map = r.figure_text("map-0");
+    assert!(map.contains("Dashed box: the part"), "{map}");
+    assert!(map.contains("Over the part's grid points"), "{map}");
+    assert!(map.contains("(lowest of the part)") && map.contains("(highest of the part)"));
+}
+
+#[test]
+fn the_tnc_plane_program_report_reads_at_1400_px() {
+    let Some(browser) = browser_or_skip() else {
+        return;
+    };
+    let r = render(
+        &browser,
+        "fixtures/tnc_ac_trunnion.h",
+        &["--grid", "9", "--max-angle", "300"],
+        "report-tnc-plane",
+    );
+    assert_readable_with(&r, "--max-angle 300 µrad");
+    // In the working planes the direction is the control's: the plot says so.
+    let direction = r.figure_text("direction-error");
+    assert!(direction.contains("Grey band"), "{direction}");
+    assert!(
+        direction.contains("in a tilted working plane"),
+        "{direction}"
+    );
+    assert!(direction.contains("FUNCTION TCPM"), "{direction}");
+    assert!(r.dom.contains("<b>PASS</b>"), "no PASS");
+    assert!(
+        r.count(PASS, 0) > 20_000,
+        "no green pass/fail line on the screenshot"
+    );
+    let corrections = r.figure_text("corrections");
+    assert!(
+        corrections.contains("no correction in the 37 lines in tilted working planes"),
+        "{corrections}"
+    );
+}
+
+/// `assert_readable` for a page with a `--max-angle` of its own.
+fn assert_readable_with(r: &Rendered, angle: &str) {
+    assert!(r.dom.contains(angle), "no {angle}");
+    let dom = r.dom.replace(angle, "--max-angle 100 µrad");
+    let r = Rendered {
+        dom,
+        histogram: r.histogram.clone(),
+        white: r.white,
+        grey: r.grey,
+        height: r.height,
+    };
+    assert_readable(&r, 1);
+}
+
+#[test]
+fn a_page_that_scrolls_sideways_fails_the_check() {
+    // The check must be able to fail: the summary in a box that does not wrap, as it was.
+    let Some(browser) = browser_or_skip() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let page = dir.path().join("report.html");
+    let out = Command::new(env!("CARGO_BIN_EXE_nccomp"))
+        .args(["report", "-q", "--machine", MACHINE, "--errors", ERRORS])
+        .args(["fixtures/tnc_ac_trunnion.h", "--grid", "3", "-o"])
+        .arg(&page)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let html = std::fs::read_to_string(&page).unwrap();
+    let broken = html.replace("white-space:pre-wrap;", "white-space:pre;overflow-x:auto;");
+    assert_ne!(broken, html);
+    std::fs::write(&page, broken).unwrap();
+    let r = render_page(&browser, &page, "report-broken");
+    assert!(
+        r.marker("overflow").contains("pre.summary"),
+        "{}",
+        r.marker("overflow")
+    );
 }
 
 #[test]
@@ -408,4 +642,22 @@ fn cli_refuses_bad_requests_and_writes_nothing() {
         assert!(stderr.contains(message), "{extra:?}: {stderr}");
         assert!(!page.exists(), "{extra:?}");
     }
+}
+
+#[test]
+fn a_zero_model_is_not_checked_and_draws_no_flat_map() {
+    let machine = machine_file::load(Path::new(MACHINE)).unwrap();
+    let errors = error_file::parse("", "zero.toml", &machine).unwrap();
+    let src = std::fs::read(PROGRAM).unwrap();
+    let options = Options {
+        grid: 3,
+        ..Options::default()
+    };
+    let r = report::build(&machine, &errors, &src, Names::default(), &options).unwrap();
+    let html = r.html().unwrap();
+    assert!(html.contains("<b>NOT CHECKED</b>"), "{html}");
+    assert!(html.contains("the error model is zero"));
+    assert!(html.contains("The error model predicts no tip error at A = 0°, C = 0°"));
+    // Nothing flat is drawn: no colour bar, no cell.
+    assert!(!html.contains(">µm<"));
 }

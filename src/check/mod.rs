@@ -46,6 +46,22 @@ impl Status {
     }
 }
 
+/// `--max-error`'s default (mm), for `check` and `report` alike.
+pub const DEFAULT_MAX_ERROR_MM: f64 = settings::MAX_ERROR_MM;
+
+/// `--max-angle`'s default (µrad), for `check` and `report` alike.
+pub const DEFAULT_MAX_ANGLE_URAD: f64 = settings::MAX_ANGLE_URAD;
+
+/// The direction error after compensation that the thresholds judge: the largest of the
+/// compensated blocks' and the singular poses' (where the held axis leaves it).
+pub fn judged_direction(summary: &Summary) -> Extreme {
+    if summary.singular_direction.value > summary.after_direction.value {
+        summary.singular_direction
+    } else {
+        summary.after_direction
+    }
+}
+
 /// What turns a prediction into a failure.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Thresholds {
@@ -358,11 +374,7 @@ impl<'m> Checker<'m> {
         };
         // Singular poses keep a direction error the pass cannot remove: it is reported on its
         // own (as `compensate` reports it) and judged with the rest.
-        let after_direction = if summary.singular_direction.value > summary.after_direction.value {
-            summary.singular_direction
-        } else {
-            summary.after_direction
-        };
+        let after_direction = judged_direction(&summary);
         let after = Errors {
             tip_mm: Peak::new(summary.after_position, 1.0, None),
             direction_urad: Peak::new(summary.after_direction, 1e6, None),

@@ -120,13 +120,15 @@ or the speeds needed fall outside --min-feed/--max-feed. Outputs are written onl
 success, and atomically."
     )]
     Probe(ProbeArgs),
-    /// Write an HTML report on a program: predicted errors before and after compensation,
-    /// the correction per axis, and maps of the machine's volumetric error.
+    /// Write an HTML report on a program: pass or fail against --max-error/--max-angle,
+    /// predicted errors before and after compensation, the correction per axis, and maps
+    /// of the machine's volumetric error over the program's working volume.
     #[command(
         after_help = "Example:\n  nccomp report --machine fixtures/ac_trunnion.machine.toml \\\n      --errors fixtures/ac_trunnion.errors.toml fixtures/feature_workpiece.nc \\\n      --at A=0,C=0 --at A=-90,C=90 -o report.html\n\n\
 One self-contained HTML file (inline SVG, no external resources). See docs/report.md.\n\n\
-Exit status: 0 when the report was written, 2 when an input is unusable or a block cannot be \
-compensated. The file is written only on success, and atomically."
+Exit status: 0 when the report was written (whether the page says PASS or FAIL: `nccomp check` \
+is the gate), 2 when an input is unusable or a block cannot be compensated. The file is \
+written only on success, and atomically."
     )]
     Report(ReportArgs),
     /// Error files: convert calibration files from the field (ISG CSV, Etalon) into nccomp's.

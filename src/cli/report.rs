@@ -22,6 +22,15 @@ pub(super) struct ReportArgs {
     /// Grid points per linear axis of a map.
     #[arg(long, value_name = "N", default_value_t = 15)]
     grid: usize,
+    /// The page's pass/fail line: largest predicted tip error after compensation, mm (as
+    /// `check --max-error`).
+    #[arg(long, value_name = "MM", default_value_t = crate::check::DEFAULT_MAX_ERROR_MM)]
+    max_error: f64,
+    /// The page's pass/fail line: largest predicted tool direction error after
+    /// compensation, µrad (as `check --max-angle`; the default moves the tip of a 100 mm
+    /// tool by 10 µm).
+    #[arg(long, value_name = "URAD", default_value_t = crate::check::DEFAULT_MAX_ANGLE_URAD)]
+    max_angle: f64,
     /// Print no summary.
     #[arg(long, short = 'q')]
     quiet: bool,
@@ -45,6 +54,7 @@ pub(super) fn report(args: &ReportArgs) -> crate::Result<()> {
         compensate: args.pass.options()?,
         at: args.at.clone(),
         grid: args.grid,
+        thresholds: crate::check::Thresholds::new(args.max_error, Some(args.max_angle))?,
     };
     let names = report::Names {
         program: name,

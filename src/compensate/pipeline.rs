@@ -626,6 +626,11 @@ impl Pass<'_> {
                 nc::Dialect::Sinumerik => "CYCLE800",
             };
             summary.plane_direction.update(ad, line);
+            if let Some(s) = summary.trace.as_mut().and_then(|t| t.last_mut())
+                && s.line == line
+            {
+                s.plane = true;
+            }
         }
         (ap, ad)
     }

@@ -204,6 +204,7 @@ impl<'c, 'm> Run<'c, 'm> {
             s.nominal = state.pos.nominal[..n].to_vec();
             s.written = state.emitted[..n].to_vec();
             s.chain = pass.chain;
+            s.feed = !state.modal.rapid;
         }
         if let Some(number) = tokens.iter().find_map(|t| match &t.kind {
             TokenKind::Word(w) if w.letter == b'N' => {

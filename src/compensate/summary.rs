@@ -36,6 +36,13 @@ pub struct Sample {
     pub written: Vec<f64>,
     /// The tool chain the line ran in (index into the machine's tool chains).
     pub chain: usize,
+    /// A block of the line was at a singular pose (a rotary axis held) ...
+    pub singular: bool,
+    /// ... or in a tilted working plane (the rotary axes where the control turned them):
+    /// the direction error there is left, not corrected.
+    pub plane: bool,
+    /// The line's move was at feed, not rapid: the tool cuts there (where the part is).
+    pub feed: bool,
 }
 
 /// Counts and predicted errors of one run.
@@ -178,6 +185,7 @@ impl Summary {
                     s.before_direction = s.before_direction.max(before_d);
                     s.after_position = s.after_position.max(after_p);
                     s.after_direction = s.after_direction.max(after_d);
+                    s.singular |= singular;
                 }
                 _ => trace.push(Sample {
                     line,
@@ -185,6 +193,7 @@ impl Summary {
                     before_direction: before_d,
                     after_position: after_p,
                     after_direction: after_d,
+                    singular,
                     ..Sample::default()
                 }),
             }

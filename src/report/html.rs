@@ -2,6 +2,7 @@
 //! resource of any kind (no fonts, scripts or styles from elsewhere), so it can be
 //! archived, mailed or attached to a CI run and opens the same everywhere.
 
+use super::verdict::{Outcome, Verdict};
 use std::fmt::Write;
 
 /// One plot with its heading and a sentence on how to read it.
@@ -30,24 +31,39 @@ pub(super) fn escape(text: &str) -> String {
 
 const STYLE: &str = "body{font-family:sans-serif;margin:24px;max-width:1240px;color:#222}\
 h1{font-size:22px}h2{font-size:18px;margin-top:28px}\
-pre{background:#f4f4f4;padding:10px;overflow-x:auto;font-size:13px}\
+pre.summary{background:#f4f4f4;padding:10px;font-size:13px;white-space:pre-wrap;\
+overflow-wrap:anywhere}\
+div.verdict{font-size:16px;padding:8px 12px;margin:12px 0;border-left:8px solid}\
+div.verdict.pass{background:#e7f4e4;border-color:#2c8a2c}\
+div.verdict.fail{background:#fbe5e5;border-color:#c62828}\
+div.verdict.not-checked{background:#f4f4f4;border-color:#888}\
+div.verdict b{margin-right:10px}div.verdict ul{margin:4px 0 0 0;padding-left:22px}\
 figure{margin:8px 0}figure svg{max-width:100%;height:auto;display:block}\
 p.how{font-size:14px;color:#444;max-width:1100px}\
 table.inputs td{padding:2px 12px 2px 0;font-size:14px}";
 
 /// After load, count each figure's drawn SVG elements with a non-zero box and put the
-/// counts on `<body data-rendered="id:count ...">`: what a headless browser test reads to
-/// see that the plots rendered.
+/// counts on `<body data-rendered="id:count ...">`, and list the elements wider than the
+/// window or scrolling sideways on `data-overflow` (the page must read without
+/// side-scrolling): what a headless browser test reads to see that the page rendered.
 const MARKER: &str = "(function(){var c=[];\
 document.querySelectorAll('figure').forEach(function(f){var n=0;\
 f.querySelectorAll('svg *').forEach(function(e){if(typeof e.getBBox!=='function')return;\
 var b=e.getBBox();if(b.width>0||b.height>0)n++;});c.push(f.id+':'+n);});\
-document.body.setAttribute('data-rendered',c.join(' '));})();";
+document.body.setAttribute('data-rendered',c.join(' '));\
+var o=[],w=document.documentElement.clientWidth;\
+if(document.documentElement.scrollWidth>w)o.push('page');\
+document.querySelectorAll('body *').forEach(function(e){var r=e.getBoundingClientRect();\
+if(r.right>w+1||(e.scrollWidth>e.clientWidth+1&&e.clientWidth>0&&!(e instanceof SVGElement)))\
+o.push(e.tagName.toLowerCase()+(e.id?'#'+e.id:'')+(e.className&&e.className.baseVal===undefined?'.'+e.className:''));});\
+document.body.setAttribute('data-overflow',o.length?o.join(' '):'none');})();";
 
-/// The page: title, the inputs, the run's summary and the figures under their headings.
+/// The page: title, the inputs, the pass/fail line, the run's summary and the figures
+/// under their headings.
 pub(super) fn page(
     title: &str,
     inputs: &[(&str, String)],
+    verdict: &Verdict,
     summary: &str,
     figures: &[Figure],
 ) -> String {
@@ -69,9 +85,23 @@ pub(super) fn page(
             escape(value)
         );
     }
+    let class = match verdict.outcome {
+        Outcome::Pass => "pass",
+        Outcome::Fail => "fail",
+        Outcome::NotChecked => "not-checked",
+    };
+    let _ = write!(
+        out,
+        "</table>\n<div class=\"verdict {class}\" id=\"verdict\"><b>{}</b>predicted after \
+         compensation, against the thresholds\n<ul>\n",
+        verdict.outcome.word()
+    );
+    for line in &verdict.lines {
+        let _ = writeln!(out, "<li>{}</li>", escape(line));
+    }
     let _ = writeln!(
         out,
-        "</table>\n<pre class=\"summary\">{}</pre>",
+        "</ul></div>\n<pre class=\"summary\">{}</pre>",
         escape(summary)
     );
     for f in figures {

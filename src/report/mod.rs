@@ -7,8 +7,10 @@
 
 mod html;
 pub mod plots;
+pub mod verdict;
 pub mod volume;
 
+use crate::check::{DEFAULT_MAX_ANGLE_URAD, DEFAULT_MAX_ERROR_MM, Thresholds};
 use crate::compensate::{self, Compensator, Summary};
 use crate::model::{AxisKind, ErrorModel, Machine};
 use crate::{Error, Result};
@@ -25,6 +27,8 @@ pub struct Options {
     pub at: Vec<String>,
     /// Grid points per axis of a map.
     pub grid: usize,
+    /// The pass/fail line's thresholds (`--max-error`, `--max-angle`).
+    pub thresholds: Thresholds,
 }
 
 impl Default for Options {
@@ -33,6 +37,10 @@ impl Default for Options {
             compensate: compensate::Options::default(),
             at: Vec::new(),
             grid: 15,
+            thresholds: Thresholds {
+                max_error_mm: DEFAULT_MAX_ERROR_MM,
+                max_angle_urad: Some(DEFAULT_MAX_ANGLE_URAD),
+            },
         }
     }
 }
@@ -60,6 +68,7 @@ pub struct Report {
     pub maps: Vec<Map>,
     /// Why there is no map, when there is none.
     pub no_map: Option<String>,
+    pub thresholds: Thresholds,
 }
 
 /// The largest grid accepted (points per axis).
@@ -90,12 +99,20 @@ pub fn build(
         .map(|&i| (machine.axes[i].name.clone(), machine.axes[i].kind))
         .collect();
     let chain = compensator.start_chain();
-    let nominal: Vec<Vec<f64>> = samples
-        .iter()
-        .filter(|s| s.chain == chain)
-        .map(|s| s.nominal.clone())
-        .collect();
-    let (maps, no_map) = match Layout::new(machine, kin, &nominal) {
+    let own = || samples.iter().filter(|s| s.chain == chain);
+    let nominal: Vec<Vec<f64>> = own().map(|s| s.nominal.clone()).collect();
+    // A feed move cuts from where the line before it ended to where it ends: both are
+    // on the part.
+    let mut feed: Vec<Vec<f64>> = Vec::new();
+    let mut last: Option<&compensate::Sample> = None;
+    for s in own() {
+        if s.feed {
+            feed.extend(last.map(|l| l.nominal.clone()));
+            feed.push(s.nominal.clone());
+        }
+        last = Some(s);
+    }
+    let (maps, no_map) = match Layout::new(machine, kin, &nominal, &feed) {
         None => (
             Vec::new(),
             Some("the machine has fewer than two linear axes: there is no plane to map".into()),
@@ -146,6 +163,7 @@ pub fn build(
         chain,
         maps,
         no_map,
+        thresholds: options.thresholds,
     })
 }
 
@@ -163,6 +181,15 @@ impl Report {
             .filter(|s| s.chain == self.chain)
             .cloned()
             .collect();
+        let t = &self.thresholds;
+        let tip_limit = plots::Limit {
+            value: t.max_error_mm * 1e3,
+            label: format!("--max-error {} µm", plots::short(t.max_error_mm * 1e3)),
+        };
+        let angle_limit = t.max_angle_urad.map(|a| plots::Limit {
+            value: a,
+            label: format!("--max-angle {} µrad", plots::short(a)),
+        });
         let mut figures = vec![
             Figure {
                 id: "tip-error".into(),
@@ -171,18 +198,21 @@ impl Report {
                        means it to be, at every compensated line (the largest of its pieces for \
                        arcs and split moves), as the error model predicts it: red without \
                        compensation, blue with the axis values nccomp writes (rounded to the \
-                       machine's resolution). Logarithmic scale."
+                       machine's resolution). Logarithmic scale. The dashed line is --max-error: \
+                       blue above it fails."
                     .into(),
-                svg: plots::along_program(samples, plots::Along::Tip)?,
+                svg: plots::along_program(samples, plots::Along::Tip, Some(&tip_limit))?,
             },
             Figure {
                 id: "direction-error".into(),
                 heading: "Tool-direction error along the program".into(),
-                text: "The angle between the tool's direction and the programmed one. At \
-                       singular poses (the tool along a rotary axis) that axis is held and the \
-                       direction error about it stays: the blue line shows it."
+                text: "The angle between the tool's direction and the programmed one, red \
+                       without compensation, blue compensated; the dashed line is --max-angle. \
+                       Where nccomp cannot correct the direction (tilted working planes, \
+                       singular poses) the two lines coincide: those lines are shaded and the \
+                       plot says why."
                     .into(),
-                svg: plots::along_program(samples, plots::Along::Direction)?,
+                svg: plots::along_program(samples, plots::Along::Direction, angle_limit.as_ref())?,
             },
             Figure {
                 id: "corrections".into(),
@@ -194,7 +224,7 @@ impl Report {
                 svg: plots::corrections(&own, &self.axes)?,
             },
         ];
-        let scale = self.maps.iter().map(Map::max_magnitude).fold(0.0, f64::max);
+        let max = self.maps.iter().map(Map::max_magnitude).fold(0.0, f64::max);
         for (k, m) in self.maps.iter().enumerate() {
             let beyond = if m.panels.iter().any(|p| p.beyond) {
                 " Parts of this grid lie beyond the ends of an error table; the end values \
@@ -211,7 +241,9 @@ impl Report {
                 },
                 text: format!(
                     "The tool tip's error without compensation (reference tool) over a grid of \
-                     {} × {} positions of {} and {}, in the workpiece frame. The colour is its \
+                     {} × {} positions of {} and {} over the program's working volume (where \
+                     its moves take them, with a margin), in the workpiece frame; the dashed \
+                     box is the part, where its feed moves take them. The colour is its \
                      length, on one scale for all maps of this page; the arrows are its \
                      components along {} and {}, as the axis motion that would move the tip \
                      the same way.{beyond}",
@@ -222,7 +254,7 @@ impl Report {
                     m.u.name,
                     m.v.name
                 ),
-                svg: plots::map(m, scale)?,
+                svg: plots::map(m, max)?,
             });
         }
         let mut inputs = vec![
@@ -242,6 +274,7 @@ impl Report {
         Ok(html::page(
             &format!("nccomp report: {}", self.names.program),
             &inputs,
+            &verdict::judge(&self.summary, t),
             &self.summary.to_string(),
             &figures,
         ))

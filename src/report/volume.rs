@@ -23,6 +23,9 @@ pub struct GridAxis {
 pub struct Panel {
     /// The third linear axis and its value, if the machine has one.
     pub level: Option<(String, f64)>,
+    /// Where the level lies in the part's feed moves ("lowest", "middle", "highest"), when
+    /// the levels come from the part.
+    pub role: Option<&'static str>,
     /// Per grid point, `j * u.len() + i` for u position i and v position j: the length of
     /// the tip error (mm) ...
     pub magnitude: Vec<f64>,
@@ -41,6 +44,8 @@ pub struct Map {
     pub u: GridAxis,
     pub v: GridAxis,
     pub panels: Vec<Panel>,
+    /// The span of the u and v axes over the program's feed moves: where the part is.
+    pub part: Option<[[f64; 2]; 2]>,
 }
 
 impl Map {
@@ -62,43 +67,85 @@ pub struct Layout {
     pub w: Option<usize>,
     /// Range of every variable (only the grid and level axes' are used).
     pub ranges: Vec<[f64; 2]>,
+    /// Where the part is: the span of every variable over the program's feed moves (over
+    /// all its moves when it has none), where the program gives it.
+    pub part: Vec<Option<[f64; 2]>>,
+}
+
+/// The margin around the program's working volume on the grid axes: a tenth of its larger
+/// span, at least this (mm), so the map shows the error field around it too.
+const MARGIN_MIN: f64 = 10.0;
+
+/// The span of every variable over `points`, where they give it.
+fn spans(n: usize, points: &[Vec<f64>]) -> Vec<Option<[f64; 2]>> {
+    (0..n)
+        .map(|k| {
+            let (lo, hi) = points
+                .iter()
+                .filter_map(|q| q.get(k))
+                .filter(|x| x.is_finite())
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+                    (lo.min(x), hi.max(x))
+                });
+            (lo <= hi).then_some([lo, hi])
+        })
+        .collect()
 }
 
 impl Layout {
     /// The first two linear axes of the active configuration (machine file order) span the
-    /// grid, the third gives the levels. A range is the axis's travel, else the span of
-    /// `program` (the programmed values, per variable), else ±100 mm. `None`: fewer than
-    /// two linear axes.
-    pub fn new(machine: &Machine, kin: &Kinematics, program: &[Vec<f64>]) -> Option<Self> {
+    /// grid, the third gives the levels. The grid covers the program's working volume: the
+    /// span of `program` (the programmed values, per variable) on the grid axes with a
+    /// margin, within the axis's travel; the levels are the bottom, middle and top of the
+    /// part (the span of `feed`, the values of the feed moves). An axis the program does
+    /// not give spans its travel, else ±100 mm. `None`: fewer than two linear axes.
+    pub fn new(
+        machine: &Machine,
+        kin: &Kinematics,
+        program: &[Vec<f64>],
+        feed: &[Vec<f64>],
+    ) -> Option<Self> {
         let linear: Vec<usize> = (0..kin.len())
             .filter(|&v| kin.kind(v) == AxisKind::Linear)
             .collect();
         if linear.len() < 2 {
             return None;
         }
+        let (u, v, w) = (linear[0], linear[1], linear.get(2).copied());
+        let volume = spans(kin.len(), program);
+        let part: Vec<Option<[f64; 2]>> = spans(kin.len(), feed)
+            .into_iter()
+            .zip(&volume)
+            .map(|(f, p)| f.or(*p))
+            .collect();
+        let span = |k: usize| volume[k].map_or(0.0, |[lo, hi]| hi - lo);
+        let margin = (0.1 * span(u).max(span(v))).max(MARGIN_MIN);
         let ranges = (0..kin.len())
-            .map(|v| {
-                if let Some(t) = machine.axes[kin.axes()[v]].travel {
-                    return t;
-                }
-                let (lo, hi) = program
-                    .iter()
-                    .filter_map(|q| q.get(v))
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
-                        (lo.min(x), hi.max(x))
-                    });
-                if hi - lo > 1e-6 {
-                    [lo, hi]
+            .map(|k| {
+                let travel = machine.axes[kin.axes()[k]].travel;
+                let Some([lo, hi]) = volume[k] else {
+                    return travel.unwrap_or([-100.0, 100.0]);
+                };
+                let pad = if k == u || k == v || hi - lo <= 1e-6 {
+                    margin
                 } else {
-                    [-100.0, 100.0]
+                    0.0
+                };
+                let (lo, hi) = (lo - pad, hi + pad);
+                match travel {
+                    // Within the travel, unless the program lies outside it (the map then
+                    // shows where the program goes).
+                    Some([a, b]) if lo.max(a) < hi.min(b) => [lo.max(a), hi.min(b)],
+                    _ => [lo, hi],
                 }
             })
             .collect();
         Some(Layout {
-            u: linear[0],
-            v: linear[1],
-            w: linear.get(2).copied(),
+            u,
+            v,
+            w,
             ranges,
+            part,
         })
     }
 }
@@ -113,7 +160,8 @@ fn spread(range: [f64; 2], n: usize) -> Vec<f64> {
 
 /// The maps at the fixed values `at` (one value per variable; the grid axes' are
 /// overwritten), with `n` points per grid axis. The level axis takes its value from `at`
-/// when `level_given`, else three levels: the ends and the middle of its range.
+/// when `level_given`, else three levels: the bottom, middle and top of the part (one when
+/// the part has one level), or the ends and middle of its range without a part.
 pub fn map(
     machine: &Machine,
     kin: &Kinematics,
@@ -131,13 +179,25 @@ pub fn map(
         name: name(layout.v),
         positions: spread(layout.ranges[layout.v], n),
     };
-    let levels: Vec<Option<f64>> = match layout.w {
-        None => vec![None],
-        Some(w) if level_given => vec![Some(at[w])],
-        Some(w) => {
-            let [lo, hi] = layout.ranges[w];
-            vec![Some(lo), Some((lo + hi) / 2.0), Some(hi)]
-        }
+    let levels: Vec<(Option<f64>, Option<&'static str>)> = match layout.w {
+        None => vec![(None, None)],
+        Some(w) if level_given => vec![(Some(at[w]), None)],
+        Some(w) => match layout.part[w] {
+            Some([lo, hi]) if hi - lo > 1e-6 => vec![
+                (Some(lo), Some("lowest")),
+                (Some((lo + hi) / 2.0), Some("middle")),
+                (Some(hi), Some("highest")),
+            ],
+            Some([lo, _]) => vec![(Some(lo), None)],
+            None => {
+                let [lo, hi] = layout.ranges[w];
+                vec![
+                    (Some(lo), None),
+                    (Some((lo + hi) / 2.0), None),
+                    (Some(hi), None),
+                ]
+            }
+        },
     };
     let label = (0..kin.len())
         .filter(|&k| k != layout.u && k != layout.v && Some(k) != layout.w)
@@ -158,13 +218,14 @@ pub fn map(
     let iv = linear.iter().position(|&k| k == layout.v).unwrap_or(1);
     let panels = levels
         .into_iter()
-        .map(|level| {
+        .map(|(level, role)| {
             let mut q = at.to_vec();
             if let (Some(w), Some(z)) = (layout.w, level) {
                 q[w] = z;
             }
             let mut panel = Panel {
                 level: layout.w.zip(level).map(|(w, z)| (name(w), z)),
+                role,
                 magnitude: Vec::with_capacity(n * n),
                 along: Vec::with_capacity(n * n),
                 beyond: false,
@@ -194,5 +255,8 @@ pub fn map(
         u,
         v,
         panels,
+        part: layout.part[layout.u]
+            .zip(layout.part[layout.v])
+            .map(|(a, b)| [a, b]),
     }
 }
