@@ -23,14 +23,14 @@ pub struct Limit {
 }
 
 /// Shading of lines whose direction error is left, not corrected.
-const PLANE_SHADE: RGBColor = RGBColor(225, 225, 225);
+pub(super) const PLANE_SHADE: RGBColor = RGBColor(225, 225, 225);
 const SINGULAR_SHADE: RGBColor = RGBColor(232, 222, 245);
 const LIMIT: RGBColor = RGBColor(20, 20, 20);
 /// Below this (µm or µrad) at every line, before and after, there is nothing to plot.
 const FLAT: f64 = 1e-3;
 
 /// Runs of consecutive samples for which `held` is true, as line ranges.
-fn runs(samples: &[Sample], held: impl Fn(&Sample) -> bool) -> Vec<(usize, usize)> {
+pub(super) fn runs(samples: &[Sample], held: impl Fn(&Sample) -> bool) -> Vec<(usize, usize)> {
     let mut out: Vec<(usize, usize)> = Vec::new();
     let mut open = false;
     for s in samples {

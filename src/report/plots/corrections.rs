@@ -129,8 +129,8 @@ pub fn corrections(samples: &[Sample], axes: &[(String, AxisKind)]) -> Result<St
             .any(|p| p.kind == AxisKind::Rotary && p.extent >= FLAT))
     .then(|| {
         format!(
-            "Rotary axes: no correction in the {planes} lines in tilted working planes, where \
-             the control turns them itself."
+            "Rotary axes: no correction in the {planes} lines in tilted working planes (grey), \
+             where the control turns them itself."
         )
     });
     let head = if plane_note.is_some() { 58 } else { 40 };
@@ -188,6 +188,21 @@ fn draw_panel(area: &Area<'_>, panel: &Panel<'_>, samples: &[Sample]) -> DrawRes
         .y_label_formatter(&|y| short(*y))
         .label_style(font(12))
         .draw()?;
+    if panel.kind == AxisKind::Rotary {
+        // The lines in tilted working planes, grey as in the direction plot: the rotary
+        // axes are the control's there.
+        let shade = super::along::PLANE_SHADE;
+        chart.draw_series(
+            super::along::runs(samples, |s| s.plane)
+                .into_iter()
+                .map(|(a, b)| {
+                    Rectangle::new(
+                        [(a as f64 - 0.5, -extent), (b as f64 + 0.5, extent)],
+                        shade.filled(),
+                    )
+                }),
+        )?;
+    }
     for (v, points) in &panel.series {
         let colour = AXIS_COLOURS[v % AXIS_COLOURS.len()];
         chart.draw_series(LineSeries::new(points.clone(), colour.stroke_width(2)))?;

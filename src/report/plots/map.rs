@@ -182,6 +182,9 @@ fn draw_panel(
 fn part_range(map: &Map) -> Option<String> {
     let [[a, b], [c, d]] = map.part?;
     let n = map.u.positions.len();
+    if n == 0 || map.v.positions.is_empty() {
+        return None;
+    }
     let (mut inside, mut all) = ((f64::INFINITY, 0.0f64), (f64::INFINITY, 0.0f64));
     for p in &map.panels {
         for (k, &m) in p.magnitude.iter().enumerate() {
