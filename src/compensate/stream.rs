@@ -78,6 +78,18 @@ pub(super) struct Run<'c, 'm> {
     edits: Vec<Edit>,
     pub(super) errors: Vec<Diagnostic>,
     pub(super) summary: Summary,
+    /// What the lines of label bodies run by `CALL LBL`s were written as (a TNC
+    /// subprogram after the program's end), by line number: written there when the pass
+    /// reaches them.
+    captured: std::collections::HashMap<usize, Capture>,
+}
+
+/// A body line as its calls wrote it: the text (its block numbers as if no block were
+/// inserted before it), the blocks it inserted, and the call that first ran it.
+struct Capture {
+    text: Vec<u8>,
+    inserted: u64,
+    call: usize,
 }
 
 impl<'c, 'm> Run<'c, 'm> {
@@ -89,6 +101,7 @@ impl<'c, 'm> Run<'c, 'm> {
             motion: BlockMotion::default(),
             edits: Vec::new(),
             errors: Vec::new(),
+            captured: std::collections::HashMap::new(),
             summary: Summary {
                 zero_model: comp.zero_model,
                 trace: trace.then(Vec::new),
@@ -100,6 +113,9 @@ impl<'c, 'm> Run<'c, 'm> {
     /// Read program `src` (its whole text) in `dialect`.
     pub(super) fn program(&mut self, dialect: nc::Dialect, src: &[u8]) {
         self.state.modal.for_program(dialect, src);
+        if let Some(tnc) = self.state.modal.tnc.as_mut() {
+            tnc.follow_calls = true;
+        }
     }
 
     /// Whether a block has been refused (the output is then of no use).
@@ -112,6 +128,141 @@ impl<'c, 'm> Run<'c, 'm> {
     /// cannot serve over its depth, whose motion nccomp knows, is written out as L moves
     /// instead ([`Run::write_out`]).
     pub(super) fn line(&mut self, line: &nc::Line<'_>, path: &str, out: &mut Vec<u8>) -> bool {
+        if let Some(capture) = self.captured.remove(&line.number) {
+            // A subprogram's line, written when its calls ran it: read again in its place
+            // (past the end, where it does not run), written as the calls wrote it.
+            let shift = self.state.renumber;
+            let go_on = self.line_step(line, path, &mut Vec::new());
+            self.state.renumber = shift + capture.inserted;
+            shifted(&capture.text, shift, out);
+            return go_on;
+        }
+        let go_on = self.line_step(line, path, out);
+        go_on && self.follow_calls(line, path)
+    }
+
+    /// Run the label bodies a `CALL LBL` just read hands over ([`Flow`]): each line of a
+    /// body, as the control runs it from the state at the call (jumps and calls within
+    /// followed), compensated in that state and kept to be written where the body stands.
+    /// A line that its calls would write differently is refused, naming both calls. False
+    /// when the pass should stop.
+    fn follow_calls(&mut self, call: &nc::Line<'_>, path: &str) -> bool {
+        use crate::program::heidenhain::{Flow, MAX_LABEL_BLOCKS};
+        let request = |run: &mut Self| run.state.modal.tnc.as_mut().and_then(|t| t.request.take());
+        let Some(first) = request(self) else {
+            return true;
+        };
+        let Some(labels) = self.state.modal.tnc.as_ref().map(|t| t.labels.clone()) else {
+            return true;
+        };
+        let shift = self.state.renumber;
+        let lines = self.summary.lines;
+        // The bodies being run: label, the next line's index, the call.
+        let mut frames: Vec<(String, usize, usize)> = Vec::new();
+        let mut next = Some(first);
+        let mut blocks = 0usize;
+        let mut go_on = true;
+        let fail = |run: &mut Self, message: String| {
+            run.errors.push(in_line(path, call, 0, message));
+        };
+        loop {
+            match next.take() {
+                Some(Flow::Call { name, line }) => {
+                    frames.push((name, 0, line));
+                }
+                Some(Flow::Jump { name, .. }) => match frames.last_mut() {
+                    Some(top) => {
+                        top.0 = name;
+                        top.1 = 0;
+                    }
+                    None => break,
+                },
+                None => {}
+            }
+            if let Some(t) = self.state.modal.tnc.as_mut() {
+                t.in_body = u8::try_from(frames.len()).unwrap_or(u8::MAX);
+            }
+            let Some((name, index, call_line)) = frames.last_mut() else {
+                break;
+            };
+            let Some(body) = labels.bodies.get(name.as_str()) else {
+                let message = format!("the program has no LBL {name}");
+                fail(self, message);
+                break;
+            };
+            let Some(body_line) = body.lines.get(*index) else {
+                frames.pop();
+                continue;
+            };
+            *index += 1;
+            let (label, call_line) = (name.clone(), *call_line);
+            blocks += 1;
+            if blocks > MAX_LABEL_BLOCKS {
+                fail(
+                    self,
+                    format!(
+                        "the label calls from here run more than {MAX_LABEL_BLOCKS} label blocks: not followed"
+                    ),
+                );
+                break;
+            }
+            let l = body_line.line();
+            let mut text = Vec::new();
+            self.state.renumber = 0;
+            go_on = self.line_step(&l, path, &mut text);
+            let inserted = self.state.renumber;
+            match self.captured.get(&l.number) {
+                Some(c) if c.text != text => {
+                    let message = format!(
+                        "this line of LBL {label} would be written differently for the call at line {} and the call at line {call_line}: the calls run it in different states (position, working plane, datum, tool), and nccomp writes a label's body once, for calls that share its state (expected the moves in the main program, or one label per state)",
+                        c.call
+                    );
+                    self.errors.push(in_line(path, &l, 0, message));
+                    go_on = false;
+                }
+                Some(_) => {}
+                None => {
+                    self.captured.insert(
+                        l.number,
+                        Capture {
+                            text,
+                            inserted,
+                            call: call_line,
+                        },
+                    );
+                }
+            }
+            if !go_on || self.failed() {
+                break;
+            }
+            if self
+                .state
+                .modal
+                .tnc
+                .as_ref()
+                .is_some_and(|t| t.end.is_some())
+            {
+                fail(
+                    self,
+                    format!(
+                        "the label called here ends the program at line {}: not followed",
+                        l.number
+                    ),
+                );
+                break;
+            }
+            next = request(self);
+        }
+        if let Some(t) = self.state.modal.tnc.as_mut() {
+            t.in_body = 0;
+        }
+        self.state.renumber = shift;
+        self.summary.lines = lines;
+        go_on && self.errors.len() < self.comp.passes[self.state.pass].options.max_errors
+    }
+
+    /// Compensate one line where the control runs it (see [`Run::line`]).
+    fn line_step(&mut self, line: &nc::Line<'_>, path: &str, out: &mut Vec<u8>) -> bool {
         let snapshot = self.hole_snapshot(line);
         let (errors, mark) = (self.errors.len(), out.len());
         let go_on = self.line_once(line, path, out);
@@ -440,6 +591,43 @@ fn renumber(line: &nc::Line<'_>, tokens: &[Token], edits: &mut Vec<Edit>, shift:
             at: tokens[i].span.clone(),
             text: (n + *shift).to_string().into_bytes(),
         });
+    }
+}
+
+/// Append `text` with the block number that starts each of its lines moved on by
+/// `shift` (a subprogram's lines, written with the numbers of their place).
+fn shifted(text: &[u8], shift: u64, out: &mut Vec<u8>) {
+    if shift == 0 {
+        out.extend_from_slice(text);
+        return;
+    }
+    let mut rest = text;
+    while !rest.is_empty() {
+        let end = rest
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(rest.len(), |k| k + 1);
+        let (line, tail) = rest.split_at(end);
+        rest = tail;
+        let lead = line
+            .iter()
+            .take_while(|b| b.is_ascii_whitespace() || **b == b'/')
+            .count();
+        let digits = line[lead..]
+            .iter()
+            .take_while(|b| b.is_ascii_digit())
+            .count();
+        match std::str::from_utf8(&line[lead..lead + digits])
+            .ok()
+            .and_then(|d| d.parse::<u64>().ok())
+        {
+            Some(n) if digits > 0 => {
+                out.extend_from_slice(&line[..lead]);
+                out.extend_from_slice((n + shift).to_string().as_bytes());
+                out.extend_from_slice(&line[lead + digits..]);
+            }
+            _ => out.extend_from_slice(line),
+        }
     }
 }
 
