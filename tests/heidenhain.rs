@@ -2075,6 +2075,64 @@ fn labels_that_move_and_constant_jumps_meet_the_contract() {
     assert!(summary.words_changed > 0);
 }
 
+/// The verification gate runs the label calls itself, from the written text: a
+/// compensated body broken by 10 µm (a line after the program's end, which no reading
+/// in file order would judge) fails `nccomp verify` at that line, for each call; and a
+/// jump written to skip a move the original runs fails it too.
+#[test]
+fn the_gate_follows_the_calls_and_jumps_of_the_written_program() {
+    let (p, m, e) = FIXTURES[6];
+    let setup = Setup::load(m, e);
+    let (written, _) = compensate(&setup, &fixture(p), p);
+    let dir = std::env::temp_dir().join(format!("nccomp-labels-gate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let verify = |name: &str, text: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_nccomp"))
+            .args(["verify", "-m"])
+            .arg(root().join(format!("fixtures/{m}.machine.toml")))
+            .arg("-e")
+            .arg(root().join(format!("fixtures/{e}.errors.toml")))
+            .arg(root().join(format!("fixtures/{p}")))
+            .arg(&path)
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            format!(
+                "{}{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            ),
+        )
+    };
+    let (code, text) = verify("good.h", &written);
+    assert_eq!(code, Some(0), "{text}");
+    // A body line (block 73, `L Y30` of LBL 10) 10 µm off in X.
+    let broken: String = written
+        .lines()
+        .map(|l| {
+            if let Some(rest) = l.strip_prefix("73 L X") {
+                let (x, tail) = rest.split_once(' ').unwrap();
+                let x: f64 = x.parse().unwrap();
+                format!("73 L X{:.4} {tail}\n", x + 0.01)
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    assert_ne!(broken, written);
+    let (code, text) = verify("broken.h", &broken);
+    assert_ne!(code, Some(0), "{text}");
+    assert!(text.contains("broken.h:74"), "{text}");
+    // The main program's jump taken on another condition: the move it skipped runs.
+    let jumped = written.replace("FN 9: IF +Q1901 EQU +3", "FN 9: IF +Q1901 EQU +4");
+    let (code, text) = verify("jumped.h", &jumped);
+    assert_ne!(code, Some(0), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// What a label's calls cannot share, or a jump whose condition is not known, is refused
 /// at its place: a body that two calls would write differently (another position before
 /// the call), naming both calls; a jump on a Q parameter set nowhere; a loop back in the
