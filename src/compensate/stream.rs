@@ -82,6 +82,15 @@ pub(super) struct Run<'c, 'm> {
     /// subprogram after the program's end), by line number: written there when the pass
     /// reaches them.
     captured: std::collections::HashMap<usize, Capture>,
+    /// The copies of labels written for calls in other states, by label.
+    copies: std::collections::HashMap<String, Vec<Copy>>,
+}
+
+/// A copy of a label for the calls that write it otherwise: its name, and its lines'
+/// texts as [`Capture`] holds them.
+struct Copy {
+    name: String,
+    texts: std::collections::HashMap<usize, (Vec<u8>, u64)>,
 }
 
 /// A body line as its calls wrote it: the text (its block numbers as if no block were
@@ -102,6 +111,7 @@ impl<'c, 'm> Run<'c, 'm> {
             edits: Vec::new(),
             errors: Vec::new(),
             captured: std::collections::HashMap::new(),
+            copies: std::collections::HashMap::new(),
             summary: Summary {
                 zero_model: comp.zero_model,
                 trace: trace.then(Vec::new),
@@ -137,16 +147,30 @@ impl<'c, 'm> Run<'c, 'm> {
             shifted(&capture.text, shift, out);
             return go_on;
         }
+        let mark = out.len();
         let go_on = self.line_step(line, path, out);
-        go_on && self.follow_calls(line, path)
+        let go_on = go_on && self.follow_calls(line, path, out, mark);
+        if go_on {
+            self.write_copies(line, out);
+        }
+        go_on
     }
 
     /// Run the label bodies a `CALL LBL` just read hands over ([`Flow`]): each line of a
     /// body, as the control runs it from the state at the call (jumps and calls within
     /// followed), compensated in that state and kept to be written where the body stands.
-    /// A line that its calls would write differently is refused, naming both calls. False
-    /// when the pass should stop.
-    fn follow_calls(&mut self, call: &nc::Line<'_>, path: &str) -> bool {
+    /// Calls that write a body alike share it; a call that writes it otherwise gets a copy
+    /// of the label of its own (a new name, after the label's `LBL 0`), and its `CALL LBL`
+    /// (the last line of `out`, from `mark`) names the copy. Where a call runs more than
+    /// one label (jumps, calls within) it must write them as the calls before it did, or
+    /// it is refused, naming both calls. False when the pass should stop.
+    fn follow_calls(
+        &mut self,
+        call: &nc::Line<'_>,
+        path: &str,
+        out: &mut Vec<u8>,
+        mark: usize,
+    ) -> bool {
         use crate::program::heidenhain::{Flow, MAX_LABEL_BLOCKS};
         let request = |run: &mut Self| run.state.modal.tnc.as_mut().and_then(|t| t.request.take());
         let Some(first) = request(self) else {
@@ -155,6 +179,10 @@ impl<'c, 'm> Run<'c, 'm> {
         let Some(labels) = self.state.modal.tnc.as_ref().map(|t| t.labels.clone()) else {
             return true;
         };
+        let top = match &first {
+            Flow::Call { name, .. } => name.clone(),
+            Flow::Jump { .. } => String::new(),
+        };
         let shift = self.state.renumber;
         let lines = self.summary.lines;
         // The bodies being run: label, the next line's index, the call.
@@ -162,16 +190,22 @@ impl<'c, 'm> Run<'c, 'm> {
         let mut next = Some(first);
         let mut blocks = 0usize;
         let mut go_on = true;
+        // What this call writes: line → (text, blocks inserted); and whether it ran a
+        // label other than the one it calls.
+        let mut written: Vec<(usize, Vec<u8>, u64)> = Vec::new();
+        let mut others = false;
         let fail = |run: &mut Self, message: String| {
             run.errors.push(in_line(path, call, 0, message));
         };
         loop {
             match next.take() {
                 Some(Flow::Call { name, line }) => {
+                    others |= !frames.is_empty();
                     frames.push((name, 0, line));
                 }
                 Some(Flow::Jump { name, .. }) => match frames.last_mut() {
                     Some(top) => {
+                        others = true;
                         top.0 = name;
                         top.1 = 0;
                     }
@@ -182,7 +216,7 @@ impl<'c, 'm> Run<'c, 'm> {
             if let Some(t) = self.state.modal.tnc.as_mut() {
                 t.in_body = u8::try_from(frames.len()).unwrap_or(u8::MAX);
             }
-            let Some((name, index, call_line)) = frames.last_mut() else {
+            let Some((name, index, _)) = frames.last_mut() else {
                 break;
             };
             let Some(body) = labels.bodies.get(name.as_str()) else {
@@ -195,7 +229,6 @@ impl<'c, 'm> Run<'c, 'm> {
                 continue;
             };
             *index += 1;
-            let (label, call_line) = (name.clone(), *call_line);
             blocks += 1;
             if blocks > MAX_LABEL_BLOCKS {
                 fail(
@@ -210,28 +243,7 @@ impl<'c, 'm> Run<'c, 'm> {
             let mut text = Vec::new();
             self.state.renumber = 0;
             go_on = self.line_step(&l, path, &mut text);
-            let inserted = self.state.renumber;
-            match self.captured.get(&l.number) {
-                Some(c) if c.text != text => {
-                    let message = format!(
-                        "this line of LBL {label} would be written differently for the call at line {} and the call at line {call_line}: the calls run it in different states (position, working plane, datum, tool), and nccomp writes a label's body once, for calls that share its state (expected the moves in the main program, or one label per state)",
-                        c.call
-                    );
-                    self.errors.push(in_line(path, &l, 0, message));
-                    go_on = false;
-                }
-                Some(_) => {}
-                None => {
-                    self.captured.insert(
-                        l.number,
-                        Capture {
-                            text,
-                            inserted,
-                            call: call_line,
-                        },
-                    );
-                }
-            }
+            written.push((l.number, text, self.state.renumber));
             if !go_on || self.failed() {
                 break;
             }
@@ -258,10 +270,202 @@ impl<'c, 'm> Run<'c, 'm> {
         }
         self.state.renumber = shift;
         self.summary.lines = lines;
+        if go_on && !self.failed() {
+            self.share(&top, call.number, written, others, path, &labels, out, mark);
+        }
         go_on && self.errors.len() < self.comp.passes[self.state.pass].options.max_errors
     }
 
-    /// Compensate one line where the control runs it (see [`Run::line`]).
+    /// Keep what a call wrote of its label (see [`Run::follow_calls`]).
+    #[allow(clippy::too_many_arguments)]
+    fn share(
+        &mut self,
+        top: &str,
+        call: usize,
+        written: Vec<(usize, Vec<u8>, u64)>,
+        others: bool,
+        path: &str,
+        labels: &crate::program::heidenhain::Labels,
+        out: &mut Vec<u8>,
+        mark: usize,
+    ) {
+        let conflict = written.iter().find_map(|(n, text, _)| {
+            self.captured
+                .get(n)
+                .filter(|c| &c.text != text)
+                .map(|c| (*n, c.call))
+        });
+        let Some((line, first)) = conflict else {
+            for (n, text, inserted) in written {
+                self.captured.entry(n).or_insert(Capture {
+                    text,
+                    inserted,
+                    call,
+                });
+            }
+            return;
+        };
+        // A copy this call's texts match, or a new one.
+        let copies = self.copies.entry(top.to_string()).or_default();
+        let found = copies.iter().position(|c| {
+            written
+                .iter()
+                .all(|(n, t, _)| c.texts.get(n).is_none_or(|(ct, _)| ct == t))
+        });
+        let same_lines = labels.bodies.get(top).is_some_and(|b| {
+            b.lines
+                .iter()
+                .all(|l| written.iter().any(|(n, _, _)| *n == l.number))
+        });
+        if others || !same_lines {
+            let message = format!(
+                "this line would be written differently for the call at line {first} and the call at line {call}: the calls run it in different states (position, working plane, datum, tool), and nccomp writes a label's body once for calls that share its state, or a copy per state where a call runs only its own label's lines (this one jumps or calls, or skips lines): expected the moves in the main program, or one label per state"
+            );
+            let body_line = labels
+                .bodies
+                .values()
+                .flat_map(|b| b.lines.iter())
+                .find(|l| l.number == line);
+            match body_line {
+                Some(l) => self.errors.push(in_line(path, &l.line(), 0, message)),
+                None => self.errors.push(Diagnostic {
+                    path: path.to_string(),
+                    line,
+                    column: 1,
+                    message,
+                    source_line: String::new(),
+                    code: None,
+                }),
+            }
+            return;
+        }
+        let index = match found {
+            Some(k) => k,
+            None => {
+                // A name no label of the program has, nor another copy.
+                let taken = |name: &str, copies: &Vec<Copy>| {
+                    labels.bodies.contains_key(name) || copies.iter().any(|c| c.name == name)
+                };
+                let mut k = copies.len() + 2;
+                let mut name = format!("{top}_{k}");
+                while taken(&name, copies) {
+                    k += 1;
+                    name = format!("{top}_{k}");
+                }
+                copies.push(Copy {
+                    name,
+                    texts: written
+                        .iter()
+                        .map(|(n, t, i)| (*n, (t.clone(), *i)))
+                        .collect(),
+                });
+                copies.len() - 1
+            }
+        };
+        let name = copies[index].name.clone();
+        // The call names the copy: `LBL 10` or `LBL "10"` becomes `LBL "10_2"`.
+        let emitted = out[mark..].to_vec();
+        if let Some(at) = memchr::memmem::find(&emitted, b"LBL") {
+            let rest = &emitted[at + 3..];
+            let spaces = rest.iter().take_while(|b| **b == b' ').count();
+            let token = rest[spaces..]
+                .iter()
+                .take_while(|b| !b.is_ascii_whitespace() && **b != b';')
+                .count();
+            let mut line = emitted[..at + 3 + spaces].to_vec();
+            line.extend_from_slice(format!("\"{name}\"").as_bytes());
+            line.extend_from_slice(&rest[spaces + token..]);
+            out.truncate(mark);
+            out.extend_from_slice(&line);
+        }
+    }
+
+    /// After a label's `LBL 0` (the line just written), the copies of the label written
+    /// for its calls in other states: `LBL "name"`, its lines, `LBL 0`, numbered on.
+    fn write_copies(&mut self, line: &nc::Line<'_>, out: &mut Vec<u8>) {
+        if self.copies.is_empty() {
+            return;
+        }
+        let Some(labels) = self.state.modal.tnc.as_ref().map(|t| t.labels.clone()) else {
+            return;
+        };
+        let Some((label, body)) = labels
+            .bodies
+            .iter()
+            .find(|(_, b)| b.closed && b.line + b.lines.len() + 1 == line.number)
+        else {
+            return;
+        };
+        let Some(copies) = self.copies.remove(label) else {
+            return;
+        };
+        // The number the LBL 0 line was written with.
+        let ending: &[u8] = if line.ending.is_empty() {
+            b"\n"
+        } else {
+            line.ending
+        };
+        let mut number = crate::program::heidenhain::number_of(line.content, &{
+            let mut t = Vec::new();
+            nc::heidenhain::parse_line(line.content, &mut t);
+            t
+        })
+        .map(|n| n + self.state.renumber);
+        if line.ending.is_empty() {
+            out.extend_from_slice(ending);
+        }
+        let mut block = |out: &mut Vec<u8>, text: &[u8], number: &mut Option<u64>| {
+            // A numbered line gets the next number; a continued line stays as it is.
+            let lead = text
+                .iter()
+                .take_while(|b| b.is_ascii_whitespace() || **b == b'/')
+                .count();
+            let digits = text[lead..]
+                .iter()
+                .take_while(|b| b.is_ascii_digit())
+                .count();
+            match number.as_mut() {
+                Some(n) if digits > 0 => {
+                    *n += 1;
+                    self.state.renumber += 1;
+                    out.extend_from_slice(&text[..lead]);
+                    out.extend_from_slice(n.to_string().as_bytes());
+                    out.extend_from_slice(&text[lead + digits..]);
+                }
+                _ => out.extend_from_slice(text),
+            }
+        };
+        for copy in copies {
+            let head = format!("0 LBL \"{}\"", copy.name);
+            let mut text = head.into_bytes();
+            text.extend_from_slice(ending);
+            block(out, &text, &mut number);
+            for l in &body.lines {
+                let mut lines = match copy.texts.get(&l.number) {
+                    Some((t, _)) => t.clone(),
+                    None => [l.content.as_slice(), ending].concat(),
+                };
+                if !lines.ends_with(b"\n") && !lines.ends_with(b"\r") {
+                    lines.extend_from_slice(ending);
+                }
+                let mut rest = &lines[..];
+                while !rest.is_empty() {
+                    let end = rest
+                        .iter()
+                        .position(|&b| b == b'\n')
+                        .map_or(rest.len(), |k| k + 1);
+                    let (one, tail) = rest.split_at(end);
+                    rest = tail;
+                    block(out, one, &mut number);
+                }
+            }
+            let mut text = b"0 LBL 0".to_vec();
+            text.extend_from_slice(ending);
+            block(out, &text, &mut number);
+        }
+    }
+
+    /// Compensate one line where the control runs it (see [`Run::line`]).    /// Compensate one line where the control runs it (see [`Run::line`]).
     fn line_step(&mut self, line: &nc::Line<'_>, path: &str, out: &mut Vec<u8>) -> bool {
         let snapshot = self.hole_snapshot(line);
         let (errors, mark) = (self.errors.len(), out.len());
