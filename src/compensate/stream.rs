@@ -352,6 +352,9 @@ impl<'c, 'm> Run<'c, 'm> {
                     k += 1;
                     name = format!("{top}_{k}");
                 }
+                self.summary
+                    .label_copies
+                    .push((top.to_string(), name.clone(), call));
                 copies.push(Copy {
                     name,
                     texts: written
