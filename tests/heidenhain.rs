@@ -288,6 +288,11 @@ impl Hole {
 /// A line of the program: its text without the block number, and what it does.
 #[derive(Clone, Debug)]
 struct Rec {
+    /// The line's number in the file (the control runs a label's lines where it is
+    /// called).
+    line: usize,
+    /// The line lies after the program's end: it runs only where a call runs it.
+    after_end: bool,
     text: String,
     step: Option<Step>,
     /// The line is a PLANE SPATIAL.
@@ -311,7 +316,10 @@ struct Control<'s> {
     ended: bool,
     /// Bit k: axis k (X Y Z tilt C) has been set.
     known: u8,
-    labels: HashMap<String, Vec<String>>,
+    /// Each label's lines (number, text), up to the next label.
+    labels: HashMap<String, Vec<(usize, String)>>,
+    /// A jump (`FN 9`–`FN 12`) the line just run takes: to this label.
+    jump: Option<String>,
     /// Q parameters set with `FN 0`.
     params: HashMap<String, f64>,
     /// The drilling cycle defined last (its `~` lines fill it in).
@@ -350,18 +358,18 @@ impl<'s> Control<'s> {
     fn new(setup: &'s Setup, program: &str) -> Self {
         // The labels after the program end: their bodies up to LBL 0.
         let mut labels = HashMap::new();
-        let mut current: Option<(String, Vec<String>)> = None;
-        for line in program.lines() {
+        let mut current: Option<(String, Vec<(usize, String)>)> = None;
+        for (i, line) in program.lines().enumerate() {
             let words = statement(split_number(line).1);
             if words.first() == Some(&"LBL") {
                 if let Some((name, body)) = current.take() {
                     labels.insert(name, body);
                 }
                 if words[1] != "0" {
-                    current = Some((words[1].to_string(), Vec::new()));
+                    current = Some((words[1].trim_matches('"').to_string(), Vec::new()));
                 }
             } else if let Some((_, body)) = current.as_mut() {
-                body.push(line.to_string());
+                body.push((i + 1, line.to_string()));
             }
         }
         Control {
@@ -376,6 +384,7 @@ impl<'s> Control<'s> {
             ended: false,
             known: 0,
             labels,
+            jump: None,
             params: HashMap::new(),
             cycle: None,
             pole: None,
@@ -402,6 +411,32 @@ impl<'s> Control<'s> {
                 }
                 None
             }
+            "FN" if words[1] != "0:" && !words[1].starts_with("0:") => {
+                // FN 9–12: IF a OP b GOTO LBL n, on constants.
+                let value = |w: &str| -> f64 {
+                    let (sign, w) = match w.strip_prefix('-') {
+                        Some(rest) => (-1.0, rest),
+                        None => (1.0, w.trim_start_matches('+')),
+                    };
+                    sign * match w.strip_prefix('Q') {
+                        Some(_) => self.params[w],
+                        None => w.parse::<f64>().unwrap(),
+                    }
+                };
+                assert_eq!((words[2], words[6], words[7]), ("IF", "GOTO", "LBL"));
+                let (a, b) = (value(words[3]), value(words[5]));
+                let taken = match (words[1], words[4]) {
+                    ("9:", "EQU") => a == b,
+                    ("10:", "NE") => a != b,
+                    ("11:", "GT") => a > b,
+                    ("12:", "LT") => a < b,
+                    other => panic!("FN {other:?}"),
+                };
+                if taken {
+                    self.jump = Some(words[8].trim_matches('"').to_string());
+                }
+                None
+            }
             "FN" => {
                 // Feed rates (FQ1): a constant assigned, nothing moved.
                 let text: String = words[1..].concat();
@@ -410,19 +445,7 @@ impl<'s> Control<'s> {
                     .insert(name.to_string(), value.parse::<f64>().unwrap());
                 None
             }
-            "CALL" => {
-                assert_eq!(words[1], "LBL");
-                let body = self.labels[words[2]].clone();
-                for line in &body {
-                    let words = statement(split_number(line).1);
-                    let mut plane = false;
-                    assert!(
-                        self.line(&words, &mut plane).is_none(),
-                        "a label that moves: {line}"
-                    );
-                }
-                None
-            }
+            "CALL" => panic!("a call is run by `run`"),
             "CYCL" if words[1] == "CALL" => {
                 assert_eq!(words.len(), 2, "CYCL CALL POS/PAT is not read here");
                 let q0 = self.q;
@@ -543,7 +566,7 @@ impl<'s> Control<'s> {
                 None
             }
             "C" | "CR" | "CP" => Some(self.arc(words[0], &words[1..])),
-            "LBL" => panic!("a label before the program's end"),
+            "LBL" => None,
             w if w.starts_with('Q') && w.contains('=') => {
                 // A `~` line of a cycle's definition.
                 assert_eq!(words.len(), 1, "`{}`", words.join(" "));
@@ -883,29 +906,86 @@ impl<'s> Control<'s> {
     }
 }
 
-/// Run a program as the control does: every line, with the step it makes.
+/// Run a program as the control does: every line, with the step it makes, in the order
+/// the control runs them: a `CALL LBL` runs the label's lines (up to the next label) where
+/// it stands, a jump taken in a label goes on with the label it names, a jump taken in
+/// the main program skips the lines up to its label. The lines after the program's end
+/// follow, marked.
 fn run(setup: &Setup, program: &str) -> Vec<Rec> {
     let mut control = Control::new(setup, program);
-    program
-        .lines()
-        .map(|line| {
-            let rest = split_number(line).1;
-            let words = statement(rest);
-            let mut is_plane = false;
-            let is_cycle =
-                (words.len() > 2 && words[..2] == ["CYCL", "DEF"] && words[2].starts_with('2'))
-                    || words
-                        .first()
-                        .is_some_and(|w| w.starts_with('Q') && w.contains('='));
-            let step = control.line(&words, &mut is_plane);
-            Rec {
-                text: rest.to_string(),
-                step,
-                is_plane,
-                is_cycle,
+    let mut recs = Vec::new();
+    let mut skip: Option<String> = None;
+    for (i, line) in program.lines().enumerate() {
+        let words = statement(split_number(line).1);
+        if let Some(target) = &skip {
+            if words.first() == Some(&"LBL") && words[1].trim_matches('"') == target {
+                skip = None;
             }
-        })
-        .collect()
+            recs.push(rec(i + 1, line, None, false, &words, false));
+            continue;
+        }
+        let after_end = control.ended;
+        run_line(&mut control, i + 1, line, after_end, &mut recs);
+        if let Some(target) = control.jump.take() {
+            skip = Some(target);
+        }
+    }
+    recs
+}
+
+fn rec(
+    line: usize,
+    text: &str,
+    step: Option<Step>,
+    is_plane: bool,
+    words: &[&str],
+    after_end: bool,
+) -> Rec {
+    let is_cycle = (words.len() > 2 && words[..2] == ["CYCL", "DEF"] && words[2].starts_with('2'))
+        || words
+            .first()
+            .is_some_and(|w| w.starts_with('Q') && w.contains('='));
+    Rec {
+        line,
+        after_end,
+        text: split_number(text).1.to_string(),
+        step,
+        is_plane,
+        is_cycle,
+    }
+}
+
+/// Run one line (a call: the label's lines after it).
+fn run_line(
+    control: &mut Control<'_>,
+    number: usize,
+    line: &str,
+    after_end: bool,
+    recs: &mut Vec<Rec>,
+) {
+    let words = statement(split_number(line).1);
+    if words.first() == Some(&"CALL") && !after_end && !control.ended {
+        assert_eq!(words[1], "LBL");
+        recs.push(rec(number, line, None, false, &words, after_end));
+        let mut label = words[2].trim_matches('"').to_string();
+        let mut k = 0;
+        loop {
+            let body = control.labels[&label].clone();
+            let Some((n, l)) = body.get(k) else {
+                break;
+            };
+            k += 1;
+            run_line(control, *n, l, false, recs);
+            if let Some(target) = control.jump.take() {
+                label = target;
+                k = 0;
+            }
+        }
+        return;
+    }
+    let mut is_plane = false;
+    let step = control.line(&words, &mut is_plane);
+    recs.push(rec(number, line, step, is_plane, &words, after_end));
 }
 
 // ---------------------------------------------------------------------------------------
@@ -991,10 +1071,18 @@ fn evaluate(setup: &Setup, programmed: &str, written: &str) -> Figures {
     let real = run(setup, written);
     let mut f = Figures::default();
     let mut k = 0;
-    for (i, rec) in nominal.iter().enumerate() {
+    for rec in &nominal {
+        if rec.after_end {
+            // Labels, run where they are called.
+            break;
+        }
+        let i = rec.line - 1;
         let Some(step) = rec.step.filter(|s| s.kind != Kind::Turn) else {
-            // Lines that move nothing, and the control's turns, are written unchanged.
-            assert_eq!(real[k].text, rec.text, "line {} is written changed", i + 1);
+            // Lines that move nothing, and the control's turns, are written unchanged (a
+            // call may name a copy of its label).
+            if !(rec.text.starts_with("CALL LBL ") && real[k].text.starts_with("CALL LBL ")) {
+                assert_eq!(real[k].text, rec.text, "line {} is written changed", i + 1);
+            }
             if let (Some(a), Some(b)) = (rec.step, real[k].step) {
                 assert!(
                     (3..5).all(|j| (a.q1[j] - b.q1[j]).abs() < 1e-9),
@@ -1264,7 +1352,10 @@ fn evaluate(setup: &Setup, programmed: &str, written: &str) -> Figures {
             }
         }
     }
-    assert_eq!(k, real.len(), "the output has lines after the program's");
+    assert!(
+        real[k..].iter().all(|r| r.after_end),
+        "the output has lines after the program's"
+    );
     f
 }
 
@@ -1648,7 +1739,7 @@ fn plane_angles_match_hypermill_comments() {
 }
 
 /// A fixture: program, machine file, error file.
-const FIXTURES: [(&str, &str, &str); 7] = [
+const FIXTURES: [(&str, &str, &str); 9] = [
     ("tnc_ac_trunnion.h", "ac_trunnion", "ac_trunnion"),
     ("tnc_bc_head_table.h", "bc_head_table", "bc_head_table"),
     ("tnc_head_head.h", "head_head", "head_head"),
@@ -1664,6 +1755,19 @@ const FIXTURES: [(&str, &str, &str); 7] = [
     ),
     // C, CR and CP arcs in tilted planes, helices.
     ("tnc_ac_trunnion_arcs.h", "ac_trunnion", "ac_trunnion"),
+    // Labels that move (one called twice in one state, one once), a label that jumps
+    // with FN 9 on a constant, jumps in the main program.
+    (
+        "tnc_bc_head_table_labels.h",
+        "bc_head_table",
+        "bc_head_table",
+    ),
+    // The same with the face label called from two places: a copy of it per state.
+    (
+        "tnc_bc_head_table_label_copies.h",
+        "bc_head_table",
+        "bc_head_table",
+    ),
     // C, CP (a helix) and CR arcs under M128, the rotary axes standing.
     (
         "tnc_bc_head_table_tcp_arcs.h",
@@ -1738,11 +1842,11 @@ fn check_fixture(program: &str, machine: &str, errors: &str) -> (Figures, Summar
     // report, and the fixture's comment agree.
     let recs = run(&setup, &src);
     let mut planes = 0;
-    for (i, rec) in recs.iter().enumerate() {
+    for rec in &recs {
         let Some(step) = rec.step.filter(|s| s.kind == Kind::Turn) else {
             continue;
         };
-        let line = i + 1;
+        let line = rec.line;
         let (_, reported) = summary
             .plane_positions
             .iter()
@@ -1955,7 +2059,7 @@ fn arcs_in_tilted_planes_on_the_ac_trunnion_meet_the_contract() {
 /// within the path tolerance, each end on the contract.
 #[test]
 fn arcs_under_m128_on_the_bc_head_table_meet_the_contract() {
-    let (p, m, e) = FIXTURES[6];
+    let (p, m, e) = FIXTURES[8];
     let (_, summary) = check_fixture(p, m, e);
     assert_eq!(summary.arcs, 4, "{summary:?}");
     // The evaluation follows the arcs: a piece moved 10 µm across the helix takes it off
@@ -2043,7 +2147,169 @@ fn snapshot_tnc_ac_trunnion_arcs() {
 
 #[test]
 fn snapshot_tnc_bc_head_table_tcp_arcs() {
+    insta::assert_snapshot!(snapshot(8));
+}
+
+#[test]
+fn snapshot_tnc_bc_head_table_labels() {
     insta::assert_snapshot!(snapshot(6));
+}
+
+#[test]
+fn snapshot_tnc_bc_head_table_label_copies() {
+    insta::assert_snapshot!(snapshot(7));
+}
+
+/// A label that moves, called from two places (its first move starts elsewhere): the
+/// calls would write its body differently, so the second call gets a copy of its own,
+/// `LBL "10_2"` after the label's `LBL 0`, compensated for its state, and its `CALL LBL`
+/// names the copy; block numbers stay consecutive, and the evaluation runs each call's
+/// label.
+#[test]
+fn a_label_called_in_two_states_gets_a_copy_per_state() {
+    let (p, m, e) = FIXTURES[7];
+    check_fixture(p, m, e);
+    let setup = Setup::load(m, e);
+    let (written, _) = compensate(&setup, &fixture(p), p);
+    assert!(written.contains("\n41 CALL LBL 10 ; FACE\n"), "{written}");
+    assert!(
+        written.contains("\n46 CALL LBL \"10_2\" ; FACE\n"),
+        "{written}"
+    );
+    assert!(
+        written.contains("\n79 LBL 0\n80 LBL \"10_2\"\n81 L X-30.0061"),
+        "{written}"
+    );
+}
+
+/// Labels that move, run where they are called: `LBL 10` (a face in a tilted plane)
+/// called twice from the same place in the same plane is written once, compensated for
+/// that state, and `LBL 2` (the safe position) once for its one call; `FN 9` in a
+/// called label jumps on the constant set before the call, and `FN 9` / `FN 10` in the
+/// main program jump forward or go on as the Q parameters they compare say. The
+/// evaluation runs the labels where the control runs them and skips what the jump skips.
+#[test]
+fn labels_that_move_and_constant_jumps_meet_the_contract() {
+    let (p, m, e) = FIXTURES[6];
+    let (f, summary) = check_fixture(p, m, e);
+    assert!(f.ends >= 20, "{}", f.ends);
+    let setup = Setup::load(m, e);
+    let (written, _) = compensate(&setup, &fixture(p), p);
+    let line = |n: usize| written.lines().nth(n).unwrap().to_string();
+    // The block the jump skips is written as it stands; the body of LBL 10 is compensated.
+    assert_eq!(line(44), "44 L X0 Y0 Z30 R0 FMAX");
+    assert_ne!(line(70), "70 L Z2 R0 FMAX");
+    assert!(summary.words_changed > 0);
+}
+
+/// The verification gate runs the label calls itself, from the written text: a
+/// compensated body broken by 10 µm (a line after the program's end, which no reading
+/// in file order would judge) fails `nccomp verify` at that line, for each call; and a
+/// jump written to skip a move the original runs fails it too.
+#[test]
+fn the_gate_follows_the_calls_and_jumps_of_the_written_program() {
+    let (p, m, e) = FIXTURES[6];
+    let setup = Setup::load(m, e);
+    let (written, _) = compensate(&setup, &fixture(p), p);
+    let dir = std::env::temp_dir().join(format!("nccomp-labels-gate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let verify = |name: &str, text: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_nccomp"))
+            .args(["verify", "-m"])
+            .arg(root().join(format!("fixtures/{m}.machine.toml")))
+            .arg("-e")
+            .arg(root().join(format!("fixtures/{e}.errors.toml")))
+            .arg(root().join(format!("fixtures/{p}")))
+            .arg(&path)
+            .output()
+            .unwrap();
+        (
+            out.status.code(),
+            format!(
+                "{}{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            ),
+        )
+    };
+    let (code, text) = verify("good.h", &written);
+    assert_eq!(code, Some(0), "{text}");
+    // A body line (block 73, `L Y30` of LBL 10) 10 µm off in X.
+    let broken: String = written
+        .lines()
+        .map(|l| {
+            if let Some(rest) = l.strip_prefix("73 L X") {
+                let (x, tail) = rest.split_once(' ').unwrap();
+                let x: f64 = x.parse().unwrap();
+                format!("73 L X{:.4} {tail}\n", x + 0.01)
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    assert_ne!(broken, written);
+    let (code, text) = verify("broken.h", &broken);
+    assert_ne!(code, Some(0), "{text}");
+    assert!(text.contains("broken.h:74"), "{text}");
+    // The main program's jump taken on another condition: the move it skipped runs.
+    let jumped = written.replace("FN 9: IF +Q1901 EQU +3", "FN 9: IF +Q1901 EQU +4");
+    let (code, text) = verify("jumped.h", &jumped);
+    assert_ne!(code, Some(0), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// What a label's calls cannot share, or a jump whose condition is not known, is refused
+/// at its place: a body that two calls would write differently (another position before
+/// the call) where the label also calls another (no copy is made then), naming both
+/// calls; a jump on a Q parameter set nowhere; a loop back in the
+/// main program.
+#[test]
+fn labels_and_jumps_nccomp_cannot_follow_are_refused_where_they_stand() {
+    let setup = Setup::load("bc_head_table", "bc_head_table");
+    let src = fixture("tnc_bc_head_table_labels.h");
+    let refused = |program: &str| -> Vec<nccomp::diag::Diagnostic> {
+        let comp = Compensator::new(&setup.machine, &setup.errors, cli_options()).unwrap();
+        match comp.run(program.as_bytes(), "labels.h", &mut Vec::new()) {
+            Err(nccomp::Error::Inputs(d)) => d,
+            other => panic!("not refused: {other:?}"),
+        }
+    };
+    // The second call from another place, and the label calls another: no copy.
+    let moved = src
+        .replace("42 L X-40 Y-30 Z40 R0 FMAX", "42 L X-30 Y-30 Z40 R0 FMAX")
+        .replace(
+            "77 L X0 Y0",
+            "77 FN 9: IF +Q1900 EQU +2 GOTO LBL \"CuttingEdges2\"",
+        );
+    let d = refused(&moved);
+    assert!(
+        d[0].message.contains(
+            "this line would be written differently for the call at line 42 and the call at line 47"
+        ) && d[0].message.contains("this one jumps or calls"),
+        "{d:?}"
+    );
+    assert_eq!(d[0].line, 71, "{d:?}");
+    // The condition on a parameter the program never sets.
+    let unset = src.replace("FN 9: IF +Q1901 EQU +3", "FN 9: IF +Q1999 EQU +3");
+    let d = refused(&unset);
+    assert!(
+        d[0].message
+            .contains("Q1999 is not set to a constant before this jump")
+            && d[0].line == 44,
+        "{d:?}"
+    );
+    // A jump back.
+    let back = src.replace(
+        "FN 10: IF +Q1900 NE +2 GOTO LBL 21",
+        "FN 10: IF +Q1900 NE +1 GOTO LBL 20",
+    );
+    let d = refused(&back);
+    assert!(
+        d[0].message.contains("jumps back to LBL 20 at line 46") && d[0].line == 48,
+        "{d:?}"
+    );
 }
 
 /// A 45° swivel head (the DMU duoBLOCK of the corpus, fixtures/corpus/dmu100p_bc) turns

@@ -78,6 +78,27 @@ pub(super) struct Run<'c, 'm> {
     edits: Vec<Edit>,
     pub(super) errors: Vec<Diagnostic>,
     pub(super) summary: Summary,
+    /// What the lines of label bodies run by `CALL LBL`s were written as (a TNC
+    /// subprogram after the program's end), by line number: written there when the pass
+    /// reaches them.
+    captured: std::collections::HashMap<usize, Capture>,
+    /// The copies of labels written for calls in other states, by label.
+    copies: std::collections::HashMap<String, Vec<Copy>>,
+}
+
+/// A copy of a label for the calls that write it otherwise: its name, and its lines'
+/// texts as [`Capture`] holds them.
+struct Copy {
+    name: String,
+    texts: std::collections::HashMap<usize, (Vec<u8>, u64)>,
+}
+
+/// A body line as its calls wrote it: the text (its block numbers as if no block were
+/// inserted before it), the blocks it inserted, and the call that first ran it.
+struct Capture {
+    text: Vec<u8>,
+    inserted: u64,
+    call: usize,
 }
 
 impl<'c, 'm> Run<'c, 'm> {
@@ -89,6 +110,8 @@ impl<'c, 'm> Run<'c, 'm> {
             motion: BlockMotion::default(),
             edits: Vec::new(),
             errors: Vec::new(),
+            captured: std::collections::HashMap::new(),
+            copies: std::collections::HashMap::new(),
             summary: Summary {
                 zero_model: comp.zero_model,
                 trace: trace.then(Vec::new),
@@ -100,6 +123,9 @@ impl<'c, 'm> Run<'c, 'm> {
     /// Read program `src` (its whole text) in `dialect`.
     pub(super) fn program(&mut self, dialect: nc::Dialect, src: &[u8]) {
         self.state.modal.for_program(dialect, src);
+        if let Some(tnc) = self.state.modal.tnc.as_mut() {
+            tnc.follow_calls = true;
+        }
     }
 
     /// Whether a block has been refused (the output is then of no use).
@@ -112,6 +138,338 @@ impl<'c, 'm> Run<'c, 'm> {
     /// cannot serve over its depth, whose motion nccomp knows, is written out as L moves
     /// instead ([`Run::write_out`]).
     pub(super) fn line(&mut self, line: &nc::Line<'_>, path: &str, out: &mut Vec<u8>) -> bool {
+        if let Some(capture) = self.captured.remove(&line.number) {
+            // A subprogram's line, written when its calls ran it: read again in its place
+            // (past the end, where it does not run), written as the calls wrote it.
+            let shift = self.state.renumber;
+            let go_on = self.line_step(line, path, &mut Vec::new());
+            self.state.renumber = shift + capture.inserted;
+            shifted(&capture.text, shift, out);
+            return go_on;
+        }
+        let mark = out.len();
+        let go_on = self.line_step(line, path, out);
+        let go_on = go_on && self.follow_calls(line, path, out, mark);
+        if go_on {
+            self.write_copies(line, out);
+        }
+        go_on
+    }
+
+    /// Run the label bodies a `CALL LBL` just read hands over ([`Flow`]): each line of a
+    /// body, as the control runs it from the state at the call (jumps and calls within
+    /// followed), compensated in that state and kept to be written where the body stands.
+    /// Calls that write a body alike share it; a call that writes it otherwise gets a copy
+    /// of the label of its own (a new name, after the label's `LBL 0`), and its `CALL LBL`
+    /// (the last line of `out`, from `mark`) names the copy. Where a call runs more than
+    /// one label (jumps, calls within) it must write them as the calls before it did, or
+    /// it is refused, naming both calls. False when the pass should stop.
+    fn follow_calls(
+        &mut self,
+        call: &nc::Line<'_>,
+        path: &str,
+        out: &mut Vec<u8>,
+        mark: usize,
+    ) -> bool {
+        use crate::program::heidenhain::{Flow, MAX_LABEL_BLOCKS};
+        let request = |run: &mut Self| run.state.modal.tnc.as_mut().and_then(|t| t.request.take());
+        let Some(first) = request(self) else {
+            return true;
+        };
+        let Some(labels) = self.state.modal.tnc.as_ref().map(|t| t.labels.clone()) else {
+            return true;
+        };
+        let top = match &first {
+            Flow::Call { name, .. } => name.clone(),
+            Flow::Jump { .. } => String::new(),
+        };
+        let shift = self.state.renumber;
+        let lines = self.summary.lines;
+        // The bodies being run: label, the next line's index, the call.
+        let mut frames: Vec<(String, usize, usize)> = Vec::new();
+        let mut next = Some(first);
+        let mut blocks = 0usize;
+        let mut go_on = true;
+        // What this call writes: line → (text, blocks inserted); and whether it ran a
+        // label other than the one it calls.
+        let mut written: Vec<(usize, Vec<u8>, u64)> = Vec::new();
+        let mut others = false;
+        let fail = |run: &mut Self, message: String| {
+            run.errors.push(in_line(path, call, 0, message));
+        };
+        loop {
+            match next.take() {
+                Some(Flow::Call { name, line }) => {
+                    others |= !frames.is_empty();
+                    frames.push((name, 0, line));
+                }
+                Some(Flow::Jump { name, .. }) => match frames.last_mut() {
+                    Some(top) => {
+                        others = true;
+                        top.0 = name;
+                        top.1 = 0;
+                    }
+                    None => break,
+                },
+                None => {}
+            }
+            if let Some(t) = self.state.modal.tnc.as_mut() {
+                t.in_body = u8::try_from(frames.len()).unwrap_or(u8::MAX);
+            }
+            let Some((name, index, _)) = frames.last_mut() else {
+                break;
+            };
+            let Some(body) = labels.bodies.get(name.as_str()) else {
+                let message = format!("the program has no LBL {name}");
+                fail(self, message);
+                break;
+            };
+            let Some(body_line) = body.lines.get(*index) else {
+                frames.pop();
+                continue;
+            };
+            *index += 1;
+            blocks += 1;
+            if blocks > MAX_LABEL_BLOCKS {
+                fail(
+                    self,
+                    format!(
+                        "the label calls from here run more than {MAX_LABEL_BLOCKS} label blocks: not followed"
+                    ),
+                );
+                break;
+            }
+            let l = body_line.line();
+            let mut text = Vec::new();
+            self.state.renumber = 0;
+            go_on = self.line_step(&l, path, &mut text);
+            written.push((l.number, text, self.state.renumber));
+            if !go_on || self.failed() {
+                break;
+            }
+            if self
+                .state
+                .modal
+                .tnc
+                .as_ref()
+                .is_some_and(|t| t.end.is_some())
+            {
+                fail(
+                    self,
+                    format!(
+                        "the label called here ends the program at line {}: not followed",
+                        l.number
+                    ),
+                );
+                break;
+            }
+            next = request(self);
+        }
+        if let Some(t) = self.state.modal.tnc.as_mut() {
+            t.in_body = 0;
+        }
+        self.state.renumber = shift;
+        self.summary.lines = lines;
+        if go_on && !self.failed() {
+            self.share(&top, call.number, written, others, path, &labels, out, mark);
+        }
+        go_on && self.errors.len() < self.comp.passes[self.state.pass].options.max_errors
+    }
+
+    /// Keep what a call wrote of its label (see [`Run::follow_calls`]).
+    #[allow(clippy::too_many_arguments)]
+    fn share(
+        &mut self,
+        top: &str,
+        call: usize,
+        written: Vec<(usize, Vec<u8>, u64)>,
+        others: bool,
+        path: &str,
+        labels: &crate::program::heidenhain::Labels,
+        out: &mut Vec<u8>,
+        mark: usize,
+    ) {
+        let conflict = written.iter().find_map(|(n, text, _)| {
+            self.captured
+                .get(n)
+                .filter(|c| &c.text != text)
+                .map(|c| (*n, c.call))
+        });
+        let Some((line, first)) = conflict else {
+            for (n, text, inserted) in written {
+                self.captured.entry(n).or_insert(Capture {
+                    text,
+                    inserted,
+                    call,
+                });
+            }
+            return;
+        };
+        // A copy this call's texts match, or a new one.
+        let copies = self.copies.entry(top.to_string()).or_default();
+        let found = copies.iter().position(|c| {
+            written
+                .iter()
+                .all(|(n, t, _)| c.texts.get(n).is_none_or(|(ct, _)| ct == t))
+        });
+        let same_lines = labels.bodies.get(top).is_some_and(|b| {
+            b.lines
+                .iter()
+                .all(|l| written.iter().any(|(n, _, _)| *n == l.number))
+        });
+        if others || !same_lines {
+            let message = format!(
+                "this line would be written differently for the call at line {first} and the call at line {call}: the calls run it in different states (position, working plane, datum, tool), and nccomp writes a label's body once for calls that share its state, or a copy per state where a call runs only its own label's lines (this one jumps or calls, or skips lines): expected the moves in the main program, or one label per state"
+            );
+            let body_line = labels
+                .bodies
+                .values()
+                .flat_map(|b| b.lines.iter())
+                .find(|l| l.number == line);
+            match body_line {
+                Some(l) => self.errors.push(in_line(path, &l.line(), 0, message)),
+                None => self.errors.push(Diagnostic {
+                    path: path.to_string(),
+                    line,
+                    column: 1,
+                    message,
+                    source_line: String::new(),
+                    code: None,
+                }),
+            }
+            return;
+        }
+        let index = match found {
+            Some(k) => k,
+            None => {
+                // A name no label of the program has, nor another copy.
+                let taken = |name: &str, copies: &Vec<Copy>| {
+                    labels.bodies.contains_key(name) || copies.iter().any(|c| c.name == name)
+                };
+                let mut k = copies.len() + 2;
+                let mut name = format!("{top}_{k}");
+                while taken(&name, copies) {
+                    k += 1;
+                    name = format!("{top}_{k}");
+                }
+                self.summary
+                    .label_copies
+                    .push((top.to_string(), name.clone(), call));
+                copies.push(Copy {
+                    name,
+                    texts: written
+                        .iter()
+                        .map(|(n, t, i)| (*n, (t.clone(), *i)))
+                        .collect(),
+                });
+                copies.len() - 1
+            }
+        };
+        let name = copies[index].name.clone();
+        // The call names the copy: `LBL 10` or `LBL "10"` becomes `LBL "10_2"`.
+        let emitted = out[mark..].to_vec();
+        if let Some(at) = memchr::memmem::find(&emitted, b"LBL") {
+            let rest = &emitted[at + 3..];
+            let spaces = rest.iter().take_while(|b| **b == b' ').count();
+            let token = rest[spaces..]
+                .iter()
+                .take_while(|b| !b.is_ascii_whitespace() && **b != b';')
+                .count();
+            let mut line = emitted[..at + 3 + spaces].to_vec();
+            line.extend_from_slice(format!("\"{name}\"").as_bytes());
+            line.extend_from_slice(&rest[spaces + token..]);
+            out.truncate(mark);
+            out.extend_from_slice(&line);
+        }
+    }
+
+    /// After a label's `LBL 0` (the line just written), the copies of the label written
+    /// for its calls in other states: `LBL "name"`, its lines, `LBL 0`, numbered on.
+    fn write_copies(&mut self, line: &nc::Line<'_>, out: &mut Vec<u8>) {
+        if self.copies.is_empty() {
+            return;
+        }
+        let Some(labels) = self.state.modal.tnc.as_ref().map(|t| t.labels.clone()) else {
+            return;
+        };
+        let Some((label, body)) = labels
+            .bodies
+            .iter()
+            .find(|(_, b)| b.closed && b.line + b.lines.len() + 1 == line.number)
+        else {
+            return;
+        };
+        let Some(copies) = self.copies.remove(label) else {
+            return;
+        };
+        // The number the LBL 0 line was written with.
+        let ending: &[u8] = if line.ending.is_empty() {
+            b"\n"
+        } else {
+            line.ending
+        };
+        let mut number = crate::program::heidenhain::number_of(line.content, &{
+            let mut t = Vec::new();
+            nc::heidenhain::parse_line(line.content, &mut t);
+            t
+        })
+        .map(|n| n + self.state.renumber);
+        if line.ending.is_empty() {
+            out.extend_from_slice(ending);
+        }
+        let mut block = |out: &mut Vec<u8>, text: &[u8], number: &mut Option<u64>| {
+            // A numbered line gets the next number; a continued line stays as it is.
+            let lead = text
+                .iter()
+                .take_while(|b| b.is_ascii_whitespace() || **b == b'/')
+                .count();
+            let digits = text[lead..]
+                .iter()
+                .take_while(|b| b.is_ascii_digit())
+                .count();
+            match number.as_mut() {
+                Some(n) if digits > 0 => {
+                    *n += 1;
+                    self.state.renumber += 1;
+                    out.extend_from_slice(&text[..lead]);
+                    out.extend_from_slice(n.to_string().as_bytes());
+                    out.extend_from_slice(&text[lead + digits..]);
+                }
+                _ => out.extend_from_slice(text),
+            }
+        };
+        for copy in copies {
+            let head = format!("0 LBL \"{}\"", copy.name);
+            let mut text = head.into_bytes();
+            text.extend_from_slice(ending);
+            block(out, &text, &mut number);
+            for l in &body.lines {
+                let mut lines = match copy.texts.get(&l.number) {
+                    Some((t, _)) => t.clone(),
+                    None => [l.content.as_slice(), ending].concat(),
+                };
+                if !lines.ends_with(b"\n") && !lines.ends_with(b"\r") {
+                    lines.extend_from_slice(ending);
+                }
+                let mut rest = &lines[..];
+                while !rest.is_empty() {
+                    let end = rest
+                        .iter()
+                        .position(|&b| b == b'\n')
+                        .map_or(rest.len(), |k| k + 1);
+                    let (one, tail) = rest.split_at(end);
+                    rest = tail;
+                    block(out, one, &mut number);
+                }
+            }
+            let mut text = b"0 LBL 0".to_vec();
+            text.extend_from_slice(ending);
+            block(out, &text, &mut number);
+        }
+    }
+
+    /// Compensate one line where the control runs it (see [`Run::line`]).    /// Compensate one line where the control runs it (see [`Run::line`]).
+    fn line_step(&mut self, line: &nc::Line<'_>, path: &str, out: &mut Vec<u8>) -> bool {
         let snapshot = self.hole_snapshot(line);
         let (errors, mark) = (self.errors.len(), out.len());
         let go_on = self.line_once(line, path, out);
@@ -441,6 +799,43 @@ fn renumber(line: &nc::Line<'_>, tokens: &[Token], edits: &mut Vec<Edit>, shift:
             at: tokens[i].span.clone(),
             text: (n + *shift).to_string().into_bytes(),
         });
+    }
+}
+
+/// Append `text` with the block number that starts each of its lines moved on by
+/// `shift` (a subprogram's lines, written with the numbers of their place).
+fn shifted(text: &[u8], shift: u64, out: &mut Vec<u8>) {
+    if shift == 0 {
+        out.extend_from_slice(text);
+        return;
+    }
+    let mut rest = text;
+    while !rest.is_empty() {
+        let end = rest
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(rest.len(), |k| k + 1);
+        let (line, tail) = rest.split_at(end);
+        rest = tail;
+        let lead = line
+            .iter()
+            .take_while(|b| b.is_ascii_whitespace() || **b == b'/')
+            .count();
+        let digits = line[lead..]
+            .iter()
+            .take_while(|b| b.is_ascii_digit())
+            .count();
+        match std::str::from_utf8(&line[lead..lead + digits])
+            .ok()
+            .and_then(|d| d.parse::<u64>().ok())
+        {
+            Some(n) if digits > 0 => {
+                out.extend_from_slice(&line[..lead]);
+                out.extend_from_slice((n + shift).to_string().as_bytes());
+                out.extend_from_slice(&line[lead + digits..]);
+            }
+            _ => out.extend_from_slice(line),
+        }
     }
 }
 

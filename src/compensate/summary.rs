@@ -152,6 +152,9 @@ pub struct Summary {
     /// The line of the M2/M30 that ended the program and the lines with blocks after it,
     /// which do not run with the program and were written unchanged.
     pub after_end: Option<(usize, usize)>,
+    /// The copies of TNC labels written for calls that run them in another state: label,
+    /// copy, and the line of the call that first named the copy.
+    pub label_copies: Vec<(String, String, usize)>,
 }
 
 impl Summary {
@@ -362,6 +365,11 @@ impl Summary {
             out.push(format!(
                 "note: {} after the program's end (line {end}) left unchanged: they do not run with the program (a subprogram stored there is not compensated)",
                 count(lines, "line")
+            ));
+        }
+        for (label, copy, line) in &self.label_copies {
+            out.push(format!(
+                "note: LBL {label} written again as LBL \"{copy}\" for the call at line {line}, which runs it in another state (position, working plane, datum, tool)"
             ));
         }
         for (axis, line) in &self.assumed_home {

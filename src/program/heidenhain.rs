@@ -67,6 +67,32 @@ pub struct Tnc {
     pub end: Option<(usize, bool)>,
     /// The line being read.
     pub line: usize,
+    /// The caller runs the bodies of `CALL LBL`s that move, and follows jumps in them
+    /// ([`Flow`]): the compensation pass and the verification gate do; a caller that
+    /// does not gets such a call refused.
+    pub follow_calls: bool,
+    /// What the caller must run next, set by the block just read: a label's body that
+    /// moves, or a jump taken in a body the caller runs.
+    pub request: Option<Flow>,
+    /// How many label bodies the caller is running (each called or jumped to).
+    pub in_body: u8,
+    /// A jump taken in the main program: the lines up to this label (its name, and the
+    /// line of the jump) are skipped.
+    pub skip_to: Option<(String, usize)>,
+    /// A body run by `CALL LBL` (at any depth) moved.
+    pub moved: bool,
+}
+
+/// A change of the order the control runs the lines in, for the caller to follow.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Flow {
+    /// `CALL LBL name` at `line`, whose body moves: run the body (the lines after
+    /// `LBL name` up to `LBL 0`), then go on after the call.
+    Call { name: String, line: usize },
+    /// A jump (`FN 9`–`FN 12` whose condition holds) at `line`, in a body the caller runs:
+    /// go on with the lines after `LBL name`, up to its `LBL 0`, which returns from the
+    /// call.
+    Jump { name: String, line: usize },
 }
 
 /// The circle centre (pole) of a `CC` block.
@@ -145,13 +171,50 @@ impl CycleDef {
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Labels {
     pub bodies: HashMap<String, Body>,
+    /// The line of the program's end (the first `M2`/`M30` without `/`, or `END PGM`):
+    /// the labels after it run only when called.
+    pub end: Option<usize>,
 }
 
-/// A label's body: its lines (number, content) after the `LBL` line, up to `LBL 0`.
+/// A label's body: its lines after the `LBL` line, up to `LBL 0`.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Body {
+    /// The line of `LBL`.
     pub line: usize,
-    pub lines: Vec<(usize, Vec<u8>)>,
+    pub lines: Vec<BodyLine>,
+    /// An `LBL 0` ends it (otherwise it runs to the end of the file).
+    pub closed: bool,
+}
+
+/// A line of a label's body, as the file holds it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct BodyLine {
+    pub number: usize,
+    /// Its first byte's offset in the file.
+    pub offset: usize,
+    pub content: Vec<u8>,
+    pub ending: Vec<u8>,
+}
+
+impl BodyLine {
+    /// The line as the file holds it.
+    pub fn line(&self) -> nc::Line<'_> {
+        nc::Line {
+            number: self.number,
+            offset: self.offset,
+            content: &self.content,
+            ending: &self.ending,
+        }
+    }
+}
+
+impl Body {
+    /// Whether the body lies after the program's end (a subprogram the main program
+    /// calls), and ends in `LBL 0`: then it runs only when called, and nccomp may write
+    /// it for its calls.
+    pub fn callable(&self, labels: &Labels) -> bool {
+        self.closed && labels.end.is_some_and(|end| self.line > end)
+    }
 }
 
 impl Labels {
@@ -161,7 +224,26 @@ impl Labels {
         let mut starts: Vec<(String, usize, usize)> = Vec::new();
         let all: Vec<nc::Line<'_>> = nc::lines(src).collect();
         let mut ends = Vec::new();
+        let mut end = None;
         for (k, line) in all.iter().enumerate() {
+            if end.is_none()
+                && (memchr::memmem::find(line.content, b"M30").is_some()
+                    || memchr::memmem::find(line.content, b"M2").is_some()
+                    || memchr::memmem::find(line.content, b"END").is_some())
+            {
+                nc::heidenhain::parse_line(line.content, &mut tokens);
+                let sig = significant(line.content, &tokens);
+                let words: Vec<&str> = sig
+                    .iter()
+                    .map(|&i| text(line.content, &tokens[i]))
+                    .collect();
+                let optional = tokens.iter().any(|t| t.kind == TokenKind::BlockDelete);
+                if (words.first() == Some(&"END") && words.get(1) == Some(&"PGM"))
+                    || (!optional && ends_program(&words))
+                {
+                    end = Some(line.number);
+                }
+            }
             // Only a line that says LBL can be one: the rest are not cut into tokens.
             if memchr::memmem::find(line.content, b"LBL").is_none() {
                 continue;
@@ -182,18 +264,32 @@ impl Labels {
         }
         let mut bodies = HashMap::new();
         for (name, k, number) in starts {
-            let end = ends.iter().copied().find(|&e| e > k).unwrap_or(all.len());
-            let lines = all[k + 1..end]
+            let stop = ends.iter().copied().find(|&e| e > k);
+            let lines = all[k + 1..stop.unwrap_or(all.len())]
                 .iter()
-                .map(|l| (l.number, l.content.to_vec()))
+                .map(|l| BodyLine {
+                    number: l.number,
+                    offset: l.offset,
+                    content: l.content.to_vec(),
+                    ending: l.ending.to_vec(),
+                })
                 .collect();
             bodies.entry(name).or_insert(Body {
                 line: number,
                 lines,
+                closed: stop.is_some(),
             });
         }
-        Labels { bodies }
+        Labels { bodies, end }
     }
+}
+
+/// A block's words end the program (`M2`, `M30` among its M functions; `L … M30`).
+fn ends_program(words: &[&str]) -> bool {
+    words
+        .first()
+        .is_some_and(|w| *w == "L" || w.starts_with('M'))
+        && words.iter().any(|w| matches!(*w, "M2" | "M30" | "M02"))
 }
 
 /// The name of a label as `LBL`/`CALL LBL` give it: its number, or its quoted name.
@@ -499,6 +595,23 @@ impl Reader<'_> {
         if sig.is_empty() {
             return Ok(false);
         }
+        if let Some((target, from)) = &tnc.skip_to {
+            // A jump taken in the main program: the lines up to its label do not run.
+            if word(0) == "LBL" && label_name(content, tokens, &sig[1..]).as_ref() == Some(target) {
+                tnc.skip_to = None;
+                return Ok(false);
+            }
+            let words: Vec<&str> = sig.iter().map(|&i| text(content, &tokens[i])).collect();
+            if (word(0) == "END" && word(1) == "PGM") || ends_program(&words) {
+                return Err(at(
+                    col(0),
+                    format!(
+                        "the jump at line {from} to LBL {target} runs past the program's end here: not followed (expected the label before the end)"
+                    ),
+                ));
+            }
+            return Ok(false);
+        }
         // Past END PGM nothing belongs to the program: passed unchanged, and counted.
         if tnc.depth == 0 && modal.program_end.is_some() {
             modal.after_end += 1;
@@ -594,7 +707,7 @@ impl Reader<'_> {
             "CYCL" => self.cycle(number, content, tokens, &sig, modal, tnc, at, out),
             "PLANE" => self.plane(content, tokens, &sig, modal, tnc, at, out),
             "FUNCTION" => self.function(content, tokens, &sig, modal, at),
-            "FN" => self.fn_statement(content, tokens, &sig, tnc, at),
+            "FN" => self.fn_statement(number, content, tokens, &sig, tnc, at),
             "CALL" => self.call(content, tokens, &sig, modal, tnc, at),
             _ if matches!(&tokens[sig[0]].kind, TokenKind::Word(w) if w.letter == b'M') => {
                 // A block of M functions.
@@ -1851,9 +1964,11 @@ impl Reader<'_> {
         }
     }
 
-    /// `FN 0: Qn = value`; other FN functions are refused.
+    /// `FN 0: Qn = value`, and the jumps `FN 9`–`FN 12` whose condition is known;
+    /// other FN functions are refused.
     fn fn_statement(
         &self,
+        number_line: usize,
         content: &[u8],
         tokens: &[Token],
         sig: &[usize],
@@ -1872,6 +1987,10 @@ impl Reader<'_> {
         let Some((number, rest)) = compact.split_once(':') else {
             return Err(at(col0, "expected FN n: after FN".into()));
         };
+        if matches!(number, "9" | "10" | "11" | "12") {
+            let rest = body.split_once(':').map_or("", |(_, r)| r);
+            return self.jump(number_line, number, rest, tnc, col0, at);
+        }
         if number != "0" {
             return Err(at(
                 col0,
@@ -1901,6 +2020,111 @@ impl Reader<'_> {
                 tnc.q.remove(&key);
             }
         }
+        Ok(false)
+    }
+
+    /// `FN 9: IF a EQU b GOTO LBL n` (`FN 10` NE, `FN 11` GT, `FN 12` LT): where the
+    /// condition holds the control goes on after `LBL n`. Both sides must be numbers or Q
+    /// parameters the program has set to constants here. In a label's body the jump is
+    /// followed to the label's body (its `LBL 0` returns from the call); in the main
+    /// program a jump forward skips the lines up to the label; a jump back (a loop) is
+    /// refused.
+    fn jump(
+        &self,
+        line: usize,
+        number: &str,
+        rest: &str,
+        tnc: &mut Tnc,
+        col0: usize,
+        at: At<'_>,
+    ) -> Result<bool, Diagnostic> {
+        let op = match number {
+            "9" => "EQU",
+            "10" => "NE",
+            "11" => "GT",
+            _ => "LT",
+        };
+        let expected = format!("expected FN {number}: IF a {op} b GOTO LBL n");
+        let Some((condition, target)) = rest
+            .trim()
+            .strip_prefix("IF")
+            .and_then(|r| r.split_once("GOTO"))
+        else {
+            return Err(at(col0, expected));
+        };
+        let words: Vec<&str> = condition.split_whitespace().collect();
+        let [a, o, b] = words[..] else {
+            return Err(at(col0, expected));
+        };
+        if o != op {
+            return Err(at(col0, expected));
+        }
+        let value = |w: &str| -> Result<f64, Diagnostic> {
+            match w.parse::<f64>() {
+                Ok(v) if v.is_finite() => Ok(v),
+                _ => match q_key(w.as_bytes()) {
+                    Some((k, sign)) => tnc.q.get(&k).map(|v| sign * v).ok_or_else(|| {
+                        at(
+                            col0,
+                            format!(
+                                "FN {number}: {} is not set to a constant before this jump: whether it jumps is decided at run time (expected the Q parameter set by FN 0 on every way here)",
+                                q_name(k)
+                            ),
+                        )
+                    }),
+                    None => Err(at(
+                        col0,
+                        format!("FN {number}: `{w}` is not a number or a Q parameter"),
+                    )),
+                },
+            }
+        };
+        let (a, b) = (value(a)?, value(b)?);
+        let taken = match number {
+            "9" => a == b,
+            "10" => a != b,
+            "11" => a > b,
+            _ => a < b,
+        };
+        let target = target.trim();
+        let Some(name) = target.strip_prefix("LBL").map(str::trim).and_then(|t| {
+            if t.starts_with('"') && t.ends_with('"') && t.len() >= 2 {
+                Some(t[1..t.len() - 1].to_string())
+            } else {
+                t.parse::<u32>().ok().map(|n| n.to_string())
+            }
+        }) else {
+            return Err(at(
+                col0,
+                format!(
+                    "FN {number}: `GOTO {target}`: expected GOTO LBL with a label number or a quoted name (a label given by a parameter is decided at run time)"
+                ),
+            ));
+        };
+        let labels = tnc.labels.clone();
+        let Some(body) = labels.bodies.get(&name) else {
+            return Err(at(
+                col0,
+                format!("FN {number} jumps to LBL {name}, but the program has no LBL {name}"),
+            ));
+        };
+        if !taken {
+            return Ok(false);
+        }
+        if tnc.depth > 0 || tnc.in_body > 0 {
+            tnc.request = Some(Flow::Jump { name, line });
+            return Ok(false);
+        }
+        if body.line <= line {
+            return Err(at(
+                col0,
+                format!(
+                    "FN {number} jumps back to LBL {name} at line {}: a loop in the main program is not followed (expected jumps forward, or in a called label)",
+                    body.line
+                ),
+            ));
+        }
+        tnc.skip_to = Some((name, line));
         Ok(false)
     }
 
@@ -1953,13 +2177,22 @@ impl Reader<'_> {
                 format!("label calls nested more than {MAX_CALL_DEPTH} deep"),
             ));
         }
+        // A caller that runs moving bodies gets them handed over: the body is first read
+        // here, on a copy of the state, to learn whether it moves.
+        let handing = tnc.follow_calls && tnc.depth == 0;
+        let saved = handing.then(|| (modal.clone(), tnc.clone()));
         tnc.depth += 1;
         let mut sub_tokens = Vec::new();
         let mut motion = BlockMotion::default();
         let mut result = Ok(false);
         let continued = tnc.continued;
         tnc.continued = false;
-        for (number, line) in &body.lines {
+        let mut running = name.clone();
+        let mut body = body;
+        let mut k = 0;
+        while let Some(line) = body.lines.get(k) {
+            k += 1;
+            let (number, line) = (line.number, &line.content);
             tnc.label_blocks += 1;
             if tnc.label_blocks > MAX_LABEL_BLOCKS {
                 result = Err(at(
@@ -1973,15 +2206,16 @@ impl Reader<'_> {
             nc::heidenhain::parse_line(line, &mut sub_tokens);
             substitute(line, &mut sub_tokens, tnc);
             let inner = |_: usize, message: String| {
-                at(col0, format!("in LBL {name}, line {number}: {message}"))
+                at(col0, format!("in LBL {running}, line {number}: {message}"))
             };
-            match self.tnc_block(*number, line, &sub_tokens, modal, tnc, &inner, &mut motion) {
+            match self.tnc_block(number, line, &sub_tokens, modal, tnc, &inner, &mut motion) {
                 Ok(false) => {}
                 Ok(true) => {
+                    tnc.moved = true;
                     result = Err(at(
                         col0,
                         format!(
-                            "CALL LBL {name} runs line {number}, which moves the machine: nccomp follows only labels that move nothing (expected the moves in the main program)"
+                            "CALL LBL {name} runs line {number}, which moves the machine: nccomp follows only labels that move nothing here (expected the moves in the main program, or the label after the program's end, ended by LBL 0)"
                         ),
                     ));
                     break;
@@ -1998,9 +2232,45 @@ impl Reader<'_> {
                 ));
                 break;
             }
+            if let Some(Flow::Jump { name: to, .. }) = tnc.request.take() {
+                // A jump in the body: on after the label it names, up to its LBL 0.
+                match labels.bodies.get(&to) {
+                    Some(b) => {
+                        body = b;
+                        running = to;
+                        k = 0;
+                    }
+                    None => {
+                        result = Err(at(col0, format!("the program has no LBL {to}")));
+                        break;
+                    }
+                }
+            }
         }
         tnc.depth -= 1;
         tnc.continued = continued;
+        if let Some((m, t)) = saved
+            && tnc.moved
+        {
+            // The body moves: the caller runs it, from the state at the call.
+            let called = labels.bodies.get(&name).expect("looked up above");
+            if !called.callable(&labels) {
+                return Err(at(
+                    col0,
+                    format!(
+                        "CALL LBL {name} runs a body that moves, and LBL {name} (line {}) is not a subprogram after the program's end ended by LBL 0: not followed (expected the label after M30, up to LBL 0)",
+                        called.line
+                    ),
+                ));
+            }
+            *modal = m;
+            *tnc = t;
+            tnc.request = Some(Flow::Call {
+                name,
+                line: tnc.line,
+            });
+            return Ok(false);
+        }
         result
     }
 }

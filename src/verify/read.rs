@@ -138,6 +138,10 @@ impl<'m> Follower<'m> {
     ) -> Self {
         let mut modal = Modal::start(machine, chain);
         modal.for_program(dialect, src);
+        // The gate runs the bodies of label calls that move itself, as the control does.
+        if let Some(tnc) = modal.tnc.as_mut() {
+            tnc.follow_calls = true;
+        }
         // An axis the program has not set stands where the control left it: not known,
         // unless the machine file gives the set-up's start position.
         let mut pos = crate::program::axes::Positions {
@@ -520,6 +524,56 @@ pub struct Items<'m, 'a> {
     last: usize,
     path: &'a str,
     done: bool,
+    /// The label bodies being run (a TNC program's calls of bodies that move): label,
+    /// the next line's index, as the control runs them.
+    frames: Vec<(String, usize)>,
+    /// Body lines run so far.
+    body_blocks: usize,
+}
+
+impl Items<'_, '_> {
+    /// Follow what the block just read asks of the order the lines run in (a call of a
+    /// body that moves, a jump in a body), and give the next body line to run, if one is
+    /// running.
+    fn body_line(&mut self) -> Result<Option<crate::program::heidenhain::BodyLine>, String> {
+        use crate::program::heidenhain::{Flow, MAX_LABEL_BLOCKS};
+        let Some(tnc) = self.follower.modal.tnc.as_mut() else {
+            return Ok(None);
+        };
+        match tnc.request.take() {
+            Some(Flow::Call { name, .. }) => self.frames.push((name, 0)),
+            Some(Flow::Jump { name, .. }) => match self.frames.last_mut() {
+                Some(top) => *top = (name, 0),
+                None => return Err(format!("a jump to LBL {name} outside a label's body")),
+            },
+            None => {}
+        }
+        let labels = tnc.labels.clone();
+        loop {
+            tnc.in_body = u8::try_from(self.frames.len()).unwrap_or(u8::MAX);
+            let Some((name, index)) = self.frames.last_mut() else {
+                return Ok(None);
+            };
+            let Some(body) = labels.bodies.get(name.as_str()) else {
+                return Err(format!("the program has no LBL {name}"));
+            };
+            match body.lines.get(*index) {
+                Some(line) => {
+                    *index += 1;
+                    self.body_blocks += 1;
+                    if self.body_blocks > MAX_LABEL_BLOCKS {
+                        return Err(format!(
+                            "the program's label calls run more than {MAX_LABEL_BLOCKS} label blocks: not followed"
+                        ));
+                    }
+                    return Ok(Some(line.clone()));
+                }
+                None => {
+                    self.frames.pop();
+                }
+            }
+        }
+    }
 }
 
 impl Iterator for Items<'_, '_> {
@@ -530,6 +584,56 @@ impl Iterator for Items<'_, '_> {
             return None;
         }
         loop {
+            // A label body the control runs (a call of a body that moves).
+            match self.body_line() {
+                Ok(Some(body)) => {
+                    let Text::Whole(src) = &self.text else {
+                        self.done = true;
+                        return None;
+                    };
+                    let buf: &[u8] = src;
+                    let line = body.line();
+                    self.last = line.number;
+                    match self.follower.line(&line, self.path, buf) {
+                        Ok(Some(item)) => return Some(Ok(item)),
+                        Ok(None) => {}
+                        Err(d) => {
+                            self.done = true;
+                            return Some(Err(d));
+                        }
+                    }
+                    if self
+                        .follower
+                        .modal
+                        .tnc
+                        .as_ref()
+                        .is_some_and(|t| t.end.is_some())
+                    {
+                        self.done = true;
+                        let at = Diagnostic::at(
+                            self.path,
+                            buf,
+                            line.offset,
+                            "a called label ends the program here: not followed",
+                        );
+                        return Some(Err(at));
+                    }
+                    continue;
+                }
+                Ok(None) => {}
+                Err(message) => {
+                    self.done = true;
+                    let line = self.last;
+                    return Some(Err(Diagnostic {
+                        path: self.path.to_string(),
+                        line,
+                        column: 1,
+                        message,
+                        source_line: String::new(),
+                        code: None,
+                    }));
+                }
+            }
             let (buf, before) = match &mut self.text {
                 Text::Whole(src) => (&src[..], 0),
                 Text::Stream {
@@ -647,6 +751,8 @@ pub fn items<'m, 'a>(
         last: 0,
         path,
         done: false,
+        frames: Vec::new(),
+        body_blocks: 0,
     })
 }
 
