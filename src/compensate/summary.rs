@@ -142,6 +142,9 @@ pub struct Summary {
     /// The line of the M2/M30 that ended the program and the lines with blocks after it,
     /// which do not run with the program and were written unchanged.
     pub after_end: Option<(usize, usize)>,
+    /// Tool radius compensation (RL/RR) sections compensated, with the bound on what the
+    /// offset adds.
+    pub radius: super::radius::RadiusReport,
 }
 
 impl Summary {
@@ -261,6 +264,17 @@ impl Summary {
                 count(self.cycles_around, "cycle call"),
                 self.around_bound.value * 1e3,
                 self.around_bound.line
+            ));
+        }
+        if self.radius.sections > 0 {
+            out.push(format!(
+                "{} under tool radius compensation (RL/RR) in {}, compensated as the contour: the offset by the tool radius of {:.4} mm ([tool] {}) adds at most {:.3} µm (line {}), the error field's change over it and the offset's own change included",
+                count(self.radius.moves, "move"),
+                count(self.radius.sections, "section"),
+                self.radius.radius,
+                self.radius.source,
+                self.radius.bound * 1e3,
+                self.radius.line
             ));
         }
         if self.holes_written_out > 0 {

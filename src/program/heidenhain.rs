@@ -931,7 +931,7 @@ impl Reader<'_> {
         modal.rapid = false;
         modal.clockwise = clockwise;
         modal.arc_absolute = true;
-        radius_comp(modal, comp, at)?;
+        radius_comp(modal, comp, true, at)?;
         out.centre = centre.map(|[a, b]| {
             if modal.inch {
                 [a * super::INCH, b * super::INCH]
@@ -1068,7 +1068,10 @@ impl Reader<'_> {
         modal.tool = number;
         // The radius RL/RR offsets by: the tool's own plus DR, or a bound for any tool.
         let own = match (number, name) {
-            (Some(n), _) => tool.radii.get(&n).map(|&r| (r, super::RadiusSource::Number)),
+            (Some(n), _) => tool
+                .radii
+                .get(&n)
+                .map(|&r| (r, super::RadiusSource::Number)),
             (None, Some(name)) => tool
                 .named_radii
                 .get(name)
@@ -1251,7 +1254,7 @@ impl Reader<'_> {
         modal.rapid = words.rapid;
         modal.motion = Some(Motion::Line);
         self.l_after(modal, tnc, &words, at, out)?;
-        radius_comp(modal, comp, at)?;
+        radius_comp(modal, comp, false, at)?;
         let n = axes.len();
         let moves = out.axis_words[..n].iter().any(Option::is_some);
         if !words.plane_words.is_empty() {
@@ -2071,12 +2074,32 @@ pub fn number_of(content: &[u8], tokens: &[Token]) -> Option<u64> {
 /// R0, RL or RR in an L or arc block (`comp`: the side, RL being left, or `None` for R0,
 /// and its column): tool radius compensation from this block on, on that side of the
 /// contour, or cancelled. A block without any keeps the state. RL/RR need the called
-/// tool's radius (the machine file's `[tool]` radii) and are refused under TCP.
+/// tool's radius (the machine file's `[tool]` radii) and are refused under TCP. The
+/// control begins and ends radius compensation in straight-line blocks only (TNC 620 ISO
+/// programming manual, "Fundamentals of path functions": "You cannot activate radius
+/// compensation in a circle block"): an arc that would is refused, one that repeats the
+/// side in force is read.
 fn radius_comp(
     modal: &mut Modal,
     comp: Option<(Option<bool>, usize)>,
+    arc: bool,
     at: At<'_>,
 ) -> Result<(), Diagnostic> {
+    if arc
+        && let Some((side, col)) = comp
+        && side.map(|left| {
+            if left {
+                super::RadiusSide::Left
+            } else {
+                super::RadiusSide::Right
+            }
+        }) != modal.radius_comp
+    {
+        return Err(at(
+            col,
+            "an arc that begins, changes or ends tool radius compensation (RL, RR, R0): the control does that in straight-line (L) blocks only (expected the arc to keep the compensation in force)".into(),
+        ));
+    }
     let Some((side, col)) = comp else {
         if modal.tcp && modal.radius_comp.is_some() {
             return Err(at(
