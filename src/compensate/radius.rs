@@ -32,6 +32,10 @@ use crate::kinematics::MAX_AXES;
 use crate::program::{RadiusSide, WorkingPlane};
 use nalgebra::Vector3;
 
+/// A joint whose directions differ by less than this (rad) is tangent: what words to a
+/// micrometre make of a tangent joint.
+const TANGENT: f64 = 1e-4;
+
 /// An in-plane vector (the working plane's X, Y; mm).
 type V2 = [f64; 2];
 
@@ -177,7 +181,6 @@ impl Corner {
 #[derive(Debug, Clone)]
 pub(super) struct Element {
     line: usize,
-    col: usize,
     nominal: Shape,
     written: Shape,
     /// The offsets (from the contour point) at its start, nominal and written.
@@ -253,6 +256,8 @@ impl Pass<'_> {
                 "a block nccomp does not follow as a contour element while tool radius compensation (RL/RR) is in force: only L and C/CP blocks in a working plane (PLANE, the rotary axes standing) are compensated there (expected R0 before it)".into(),
             ));
         };
+        // Refusals point at this block: an element before it is checked once this one
+        // shows how its offset ends (its message names the element's line).
         let refuse = |why: String| at(col, why);
         if mv.pieces > 0 {
             return Err(refuse(format!(
@@ -304,7 +309,6 @@ impl Pass<'_> {
         })?;
         let element = |start: (V2, V2), approach: bool, reach: f64| Element {
             line,
-            col,
             nominal,
             written,
             start,
@@ -342,7 +346,7 @@ impl Pass<'_> {
                         Some((nominal, written)),
                         limit,
                         summary,
-                        at,
+                        &refuse,
                     )?,
                     None => (
                         scale(Shape::normal(nominal.t0, side), section.radius),
@@ -363,7 +367,7 @@ impl Pass<'_> {
                 summary.radius.moves += 1;
                 let pending = section.pending.take();
                 if let Some(p) = pending {
-                    let start = self.radius_check(&p, &section, None, limit, summary, at)?;
+                    let start = self.radius_check(&p, &section, None, limit, summary, &refuse)?;
                     let reach = norm(start.0).max(norm(start.1));
                     let departure = element(start, false, reach);
                     // Its end is its end point itself.
@@ -374,7 +378,7 @@ impl Pass<'_> {
                         0.0,
                         limit,
                         summary,
-                        at,
+                        &refuse,
                     )?;
                 }
             }
@@ -393,7 +397,7 @@ impl Pass<'_> {
         next: Option<(Shape, Shape)>,
         limit: f64,
         summary: &mut super::Summary,
-        at: &dyn Fn(usize, String) -> Diagnostic,
+        refuse: &dyn Fn(String) -> Diagnostic,
     ) -> Result<(V2, V2), Diagnostic> {
         let (r, side) = (section.radius, section.side);
         let own = |s: &Shape| scale(Shape::normal(s.t1, side), r);
@@ -415,24 +419,42 @@ impl Pass<'_> {
                     corner(p.nominal.t1, nn.t0, r, side),
                     corner(p.written.t1, nw.t0, r, side),
                 ) else {
-                    return Err(at(
-                        p.col,
+                    return Err(refuse(
                         format!(
                             "the contour turns back on itself at the end of this element under tool radius compensation (RL/RR; line {}): the control's offset there is not followed (expected R0 before the reversal)",
                             p.line
                         ),
                     ));
                 };
+                // At an inside corner of an arc the control intersects the offset arc with
+                // the other offset element, which the miter point does not bound: refused
+                // beyond what the words can make of a tangent joint.
+                let inside = match side {
+                    RadiusSide::Left => cross(p.nominal.t1, nn.t0) > 0.0,
+                    RadiusSide::Right => cross(p.nominal.t1, nn.t0) < 0.0,
+                };
+                let angle = cross(p.nominal.t1, nn.t0)
+                    .abs()
+                    .atan2(dot(p.nominal.t1, nn.t0));
+                if inside && angle > TANGENT && (p.nominal.arc.is_some() || nn.arc.is_some()) {
+                    return Err(refuse(
+                        format!(
+                            "an inside corner of {:.3}° at an arc under tool radius compensation (RL/RR; the end of line {}): where the control intersects the offset arc with the next element is not bounded by nccomp (expected the joint tangent, or the contour programmed as the tool centre path with R0)",
+                            angle.to_degrees(),
+                            p.line
+                        ),
+                    ));
+                }
                 let (en, sn) = cn.ends();
                 let (ew, sw) = cw.ends();
                 ((en, ew), (sn, sw), Corner::distance(cw, cn))
             }
         };
         let reach = norm(end.0).max(norm(end.1));
-        self.radius_element(p, section, end, reach.max(p.reach), limit, summary, at)
+        self.radius_element(p, section, end, reach.max(p.reach), limit, summary, refuse)
             .and_then(|()| {
                 if corner_bound > limit {
-                    Err(self.radius_refusal(p, section, corner_bound, limit, at))
+                    Err(self.radius_refusal(p, section, corner_bound, limit, refuse))
                 } else {
                     Ok(())
                 }
@@ -451,7 +473,7 @@ impl Pass<'_> {
         reach: f64,
         limit: f64,
         summary: &mut super::Summary,
-        at: &dyn Fn(usize, String) -> Diagnostic,
+        refuse: &dyn Fn(String) -> Diagnostic,
     ) -> Result<(), Diagnostic> {
         // The offset's change: at the ends; along an arc the radial directions turn in
         // proportion, so the angle between them (not its chord) is bounded by the ends'.
@@ -477,8 +499,7 @@ impl Pass<'_> {
         let lateral = self
             .lateral_bound(&cyl, p.length, enough)
             .ok_or_else(|| {
-                at(
-                    p.col,
+                refuse(
                     format!(
                         "the error field's change over the tool radius cannot be bounded at this contour element (tool radius compensation, RL/RR; line {}): the error model gives no bound (expected the contour programmed as the tool centre path, R0)",
                         p.line
@@ -491,7 +512,7 @@ impl Pass<'_> {
             summary.radius.line = p.line;
         }
         if bound > limit {
-            return Err(self.radius_refusal(p, section, bound, limit, at));
+            return Err(self.radius_refusal(p, section, bound, limit, refuse));
         }
         Ok(())
     }
@@ -502,16 +523,15 @@ impl Pass<'_> {
         section: &Section,
         bound: f64,
         limit: f64,
-        at: &dyn Fn(usize, String) -> Diagnostic,
+        refuse: &dyn Fn(String) -> Diagnostic,
     ) -> Diagnostic {
         let tolerance = self.options.path.unwrap_or_default().position;
         let rounding = crate::verify::Tolerances::rounding(self.machine);
         // The tolerance at which the bound fits the half beside the contour's.
         let needed = 2.0 * (bound - rounding).max(0.0);
-        at(
-            p.col,
+        refuse(
             format!(
-                "tool radius compensation (RL/RR) offsets this contour element (line {}) by the tool's radius of {:.4} mm, and the error field's change over that offset, with the offset's own change where the compensated contour turns, can move the tool centre by up to {:.2} µm from its nominal place: more than {:.2} µm (half the tolerance of {:.2} µm, the other half held by the contour, and what the words' rounding to the machine's resolution can add; expected the contour programmed as the tool centre path (R0), which nccomp compensates, or a tolerance of {:.4} mm or more)",
+                "tool radius compensation (RL/RR) offsets the contour element at line {} by the tool's radius of {:.4} mm, and the error field's change over that offset, with the offset's own change where the compensated contour turns, can move the tool centre by up to {:.2} µm from its nominal place: more than {:.2} µm (half the tolerance of {:.2} µm, the other half held by the contour, and what the words' rounding to the machine's resolution can add; expected the contour programmed as the tool centre path (R0), which nccomp compensates, or a tolerance of {:.4} mm or more)",
                 p.line,
                 section.radius,
                 bound * 1e3,
