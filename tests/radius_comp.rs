@@ -205,8 +205,14 @@ fn offset(contour: &Contour, r: f64) -> Vec<Vector3<f64>> {
     let samples = 400;
     let els = &contour.elements;
     // Each element's offset start and end (trimmed at inside corners).
-    let mut starts: Vec<Vector3<f64>> = els.iter().map(|e| e.at(0.0) + normal(e.tangent(0.0))).collect();
-    let mut ends: Vec<Vector3<f64>> = els.iter().map(|e| e.at(1.0) + normal(e.tangent(1.0))).collect();
+    let mut starts: Vec<Vector3<f64>> = els
+        .iter()
+        .map(|e| e.at(0.0) + normal(e.tangent(0.0)))
+        .collect();
+    let mut ends: Vec<Vector3<f64>> = els
+        .iter()
+        .map(|e| e.at(1.0) + normal(e.tangent(1.0)))
+        .collect();
     // Corners: transition arcs at outside ones, the intersection of the offset lines at
     // inside ones (lines only in this test), the offsets joined at tangent ones.
     let mut corner_arcs: Vec<Option<(Vector3<f64>, [f64; 2], [f64; 2])>> = vec![None; els.len()];
@@ -241,7 +247,10 @@ fn offset(contour: &Contour, r: f64) -> Vec<Vector3<f64>> {
     for (k, e) in els.iter().enumerate() {
         // The element's offset, trimmed where its ends moved: the offset point at s moved
         // in proportion (exact for lines; an arc's ends are not trimmed here).
-        let (a0, a1) = (e.at(0.0) + normal(e.tangent(0.0)), e.at(1.0) + normal(e.tangent(1.0)));
+        let (a0, a1) = (
+            e.at(0.0) + normal(e.tangent(0.0)),
+            e.at(1.0) + normal(e.tangent(1.0)),
+        );
         for i in 0..=samples {
             let s = i as f64 / samples as f64;
             let q = e.at(s) + normal(e.tangent(s));
@@ -277,7 +286,11 @@ fn farthest(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> f64 {
     let to_segment = |p: &Vector3<f64>, u: &Vector3<f64>, v: &Vector3<f64>| {
         let d = v - u;
         let l = d.norm_squared();
-        let s = if l == 0.0 { 0.0 } else { ((p - u).dot(&d) / l).clamp(0.0, 1.0) };
+        let s = if l == 0.0 {
+            0.0
+        } else {
+            ((p - u).dot(&d) / l).clamp(0.0, 1.0)
+        };
         (p - (u + d * s)).norm()
     };
     a.iter()
@@ -390,7 +403,10 @@ fn what_radius_compensation_cannot_do_is_refused_naming_why() {
     let program = fixture();
     let refused = |src: &str, at: &str, says: &str| {
         let e = compensate(&machine, &errors, src).unwrap_err();
-        assert!(e.contains(at) && e.contains(says), "expected {at} / {says}:\n{e}");
+        assert!(
+            e.contains(at) && e.contains(says),
+            "expected {at} / {says}:\n{e}"
+        );
     };
     // A big radius (DR+27: 30 mm): the bound exceeds half the tolerance.
     refused(
@@ -422,7 +438,10 @@ fn what_radius_compensation_cannot_do_is_refused_naming_why() {
     );
     // Outside a working plane.
     refused(
-        &program.replace("12 PLANE SPATIAL SPA0 SPB0 SPC0 STAY SEQ+ TABLE ROT\n13 L A+Q120 C+Q122 R0 FMAX\n", ""),
+        &program.replace(
+            "12 PLANE SPATIAL SPA0 SPB0 SPC0 STAY SEQ+ TABLE ROT\n13 L A+Q120 C+Q122 R0 FMAX\n",
+            "",
+        ),
         "rl.h:",
         "working plane",
     );

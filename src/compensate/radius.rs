@@ -419,12 +419,10 @@ impl Pass<'_> {
                     corner(p.nominal.t1, nn.t0, r, side),
                     corner(p.written.t1, nw.t0, r, side),
                 ) else {
-                    return Err(refuse(
-                        format!(
-                            "the contour turns back on itself at the end of this element under tool radius compensation (RL/RR; line {}): the control's offset there is not followed (expected R0 before the reversal)",
-                            p.line
-                        ),
-                    ));
+                    return Err(refuse(format!(
+                        "the contour turns back on itself at the end of this element under tool radius compensation (RL/RR; line {}): the control's offset there is not followed (expected R0 before the reversal)",
+                        p.line
+                    )));
                 };
                 // At an inside corner of an arc the control intersects the offset arc with
                 // the other offset element, which the miter point does not bound: refused
@@ -437,13 +435,11 @@ impl Pass<'_> {
                     .abs()
                     .atan2(dot(p.nominal.t1, nn.t0));
                 if inside && angle > TANGENT && (p.nominal.arc.is_some() || nn.arc.is_some()) {
-                    return Err(refuse(
-                        format!(
-                            "an inside corner of {:.3}° at an arc under tool radius compensation (RL/RR; the end of line {}): where the control intersects the offset arc with the next element is not bounded by nccomp (expected the joint tangent, or the contour programmed as the tool centre path with R0)",
-                            angle.to_degrees(),
-                            p.line
-                        ),
-                    ));
+                    return Err(refuse(format!(
+                        "an inside corner of {:.3}° at an arc under tool radius compensation (RL/RR; the end of line {}): where the control intersects the offset arc with the next element is not bounded by nccomp (expected the joint tangent, or the contour programmed as the tool centre path with R0)",
+                        angle.to_degrees(),
+                        p.line
+                    )));
                 }
                 let (en, sn) = cn.ends();
                 let (ew, sw) = cw.ends();
@@ -529,17 +525,15 @@ impl Pass<'_> {
         let rounding = crate::verify::Tolerances::rounding(self.machine);
         // The tolerance at which the bound fits the half beside the contour's.
         let needed = 2.0 * (bound - rounding).max(0.0);
-        refuse(
-            format!(
-                "tool radius compensation (RL/RR) offsets the contour element at line {} by the tool's radius of {:.4} mm, and the error field's change over that offset, with the offset's own change where the compensated contour turns, can move the tool centre by up to {:.2} µm from its nominal place: more than {:.2} µm (half the tolerance of {:.2} µm, the other half held by the contour, and what the words' rounding to the machine's resolution can add; expected the contour programmed as the tool centre path (R0), which nccomp compensates, or a tolerance of {:.4} mm or more)",
-                p.line,
-                section.radius,
-                bound * 1e3,
-                limit * 1e3,
-                tolerance * 1e3,
-                needed.max(tolerance * 1.0001)
-            ),
-        )
+        refuse(format!(
+            "tool radius compensation (RL/RR) offsets the contour element at line {} by the tool's radius of {:.4} mm, and the error field's change over that offset, with the offset's own change where the compensated contour turns, can move the tool centre by up to {:.2} µm from its nominal place: more than {:.2} µm (half the tolerance of {:.2} µm, the other half held by the contour, and what the words' rounding to the machine's resolution can add; expected the contour programmed as the tool centre path (R0), which nccomp compensates, or a tolerance of {:.4} mm or more)",
+            p.line,
+            section.radius,
+            bound * 1e3,
+            limit * 1e3,
+            tolerance * 1e3,
+            needed.max(tolerance * 1.0001)
+        ))
     }
 
     /// The cylinder about a move's chord: its ends' axis values, nominal and written, and
