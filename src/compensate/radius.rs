@@ -32,9 +32,12 @@ use crate::kinematics::MAX_AXES;
 use crate::program::{RadiusSide, WorkingPlane};
 use nalgebra::Vector3;
 
-/// A joint whose directions differ by less than this (rad) is tangent: what words to a
-/// micrometre make of a tangent joint.
-const TANGENT: f64 = 1e-4;
+/// A joint at an arc whose directions differ by less than this (rad) is near tangent:
+/// the offset paths there meet near the offset of the joint, within the offset's own
+/// change (what the words of a tangent joint, rounded, and a kept arc's written pole make
+/// of it: 0.1 mrad in the corpus's pockets); beyond it, an inside corner at an arc is
+/// refused.
+const TANGENT: f64 = 0.01;
 
 /// An in-plane vector (the working plane's X, Y; mm).
 type V2 = [f64; 2];
