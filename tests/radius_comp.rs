@@ -215,7 +215,9 @@ fn offset(contour: &Contour, r: f64) -> Vec<Vector3<f64>> {
         .collect();
     // Corners: transition arcs at outside ones, the intersection of the offset lines at
     // inside ones (lines only in this test), the offsets joined at tangent ones.
-    let mut corner_arcs: Vec<Option<(Vector3<f64>, [f64; 2], [f64; 2])>> = vec![None; els.len()];
+    // Where an outside corner's transition arc turns: the corner and the two tangents.
+    type Turn = (Vector3<f64>, [f64; 2], [f64; 2]);
+    let mut corner_arcs: Vec<Option<Turn>> = vec![None; els.len()];
     for k in 0..els.len().saturating_sub(1) {
         let (t1, t2) = (els[k].tangent(1.0), els[k + 1].tangent(0.0));
         let turn = t1[0] * t2[1] - t1[1] * t2[0];
