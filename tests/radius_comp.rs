@@ -411,6 +411,13 @@ fn what_radius_compensation_cannot_do_is_refused_naming_why() {
         );
     };
     // A big radius (DR+27: 30 mm): the bound exceeds half the tolerance.
+    let e = compensate(
+        &machine,
+        &errors,
+        &program.replace("DL+0 DR+0", "DL+0 DR+27"),
+    )
+    .unwrap_err();
+    insta::assert_snapshot!("tnc_dmu85_rl_big_radius_refused", e);
     refused(
         &program.replace("DL+0 DR+0", "DL+0 DR+27"),
         "rl.h:18:",
