@@ -460,6 +460,15 @@ fn what_radius_compensation_cannot_do_is_refused_naming_why() {
         "rl.h:21:",
         "straight-line (L) blocks only",
     );
+    // A plane changed under RL.
+    refused(
+        &program.replace(
+            "20 C X20 Y10 DR-\n",
+            "20 C X20 Y10 DR-\n20 CYCL DEF 7.0 DATUM SHIFT\n20 CYCL DEF 7.1 X1\n",
+        ),
+        "rl.h:",
+        "the working plane or the datum shift changed",
+    );
     // The program ending under RL.
     let cut: String = program
         .lines()

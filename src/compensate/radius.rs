@@ -202,6 +202,8 @@ pub(super) struct Section {
     side: RadiusSide,
     radius: f64,
     pending: Option<Element>,
+    /// The working plane its contour is in.
+    frame: WorkingPlane,
 }
 
 /// What the summary reports of the compensated sections.
@@ -320,6 +322,11 @@ impl Pass<'_> {
             length,
             reach,
         };
+        if state.radius.as_ref().is_some_and(|s| s.frame != *mv.frame) {
+            return Err(refuse(
+                "the working plane or the datum shift changed while tool radius compensation (RL/RR) is in force: the control's offset across the change is not followed (expected R0 before PLANE or CYCL DEF 7)".into(),
+            ));
+        }
         match (state.radius.take(), side) {
             // The approach block: it starts at its start point, and ends at the offset of
             // the next element's start.
@@ -337,6 +344,7 @@ impl Pass<'_> {
                     side,
                     radius,
                     pending: Some(element(([0.0; 2], [0.0; 2]), true, 0.0)),
+                    frame: *mv.frame,
                 });
             }
             (Some(mut section), Some(side)) if side == section.side => {
