@@ -335,6 +335,96 @@ fn real(kin: &Kinematics, machine: &Machine, w: &Vector3<f64>, length: f64) -> V
     kin.pose(Model::Actual, &q, length).0.p
 }
 
+/// Where program `src` leaves the rotary axes A and C (their last words; 0 before).
+fn rotaries(src: &str) -> [f64; 2] {
+    let mut ac = [0.0; 2];
+    for word in src.split_whitespace() {
+        for (k, letter) in ["A", "C"].iter().enumerate() {
+            if let Some(v) = word
+                .strip_prefix(letter)
+                .and_then(|v| v.parse::<f64>().ok())
+            {
+                ac[k] = v;
+            }
+        }
+    }
+    ac
+}
+
+/// The same in machine axes: the words are the axis values, the rotary axes at `ac`.
+fn machine_axes(
+    kin: &Kinematics,
+    machine: &Machine,
+    (w, ac): (&Vector3<f64>, [f64; 2]),
+    length: f64,
+    model: Model,
+) -> Vector3<f64> {
+    let var = |name: &str| {
+        kin.axes()
+            .iter()
+            .position(|&a| machine.axes[a].name == name)
+            .unwrap()
+    };
+    let mut q = vec![0.0; kin.len()];
+    q[var("X")] = w.x;
+    q[var("Y")] = w.y;
+    q[var("Z")] = w.z;
+    q[var("A")] = ac[0];
+    q[var("C")] = ac[1];
+    kin.pose(model, &q, length).0.p
+}
+
+/// An RL contour of lines in machine axes (no PLANE): the fixture without its plane, the
+/// arc a line.
+#[test]
+fn an_rl_contour_in_machine_axes_lands_on_its_nominal_offset_path() {
+    let (machine, errors) = dmu85();
+    let program = fixture()
+        .replace(
+            "12 PLANE SPATIAL SPA0 SPB0 SPC0 STAY SEQ+ TABLE ROT\n13 L A+Q120 C+Q122 R0 FMAX\n",
+            "",
+        )
+        .replace("19 CC X10 Y10\n20 C X20 Y10 DR-\n", "20 L X20 Y10\n");
+    let written = compensate(&machine, &errors, &program).unwrap();
+    assert_ne!(written, program);
+    insta::assert_snapshot!("tnc_dmu85_rl_machine_axes_written", written);
+    let (r, length) = (3.0, 102.0);
+    let kin = Kinematics::new(&machine, &errors, 0).unwrap();
+    let nominal: Vec<Vector3<f64>> = offset(&contour(&program), r)
+        .iter()
+        .map(|w| {
+            machine_axes(
+                &kin,
+                &machine,
+                (w, rotaries(&program)),
+                length,
+                Model::Nominal,
+            )
+        })
+        .collect();
+    let actual: Vec<Vector3<f64>> = offset(&contour(&written), r)
+        .iter()
+        .map(|w| {
+            machine_axes(
+                &kin,
+                &machine,
+                (w, rotaries(&written)),
+                length,
+                Model::Actual,
+            )
+        })
+        .collect();
+    let limit = 0.001 + nccomp::verify::Tolerances::rounding(&machine);
+    let (there, back) = (farthest(&actual, &nominal), farthest(&nominal, &actual));
+    eprintln!(
+        "machine axes: tool centre off its nominal offset path: {:.3} µm (and back {:.3} µm), limit {:.3} µm",
+        there * 1e3,
+        back * 1e3,
+        limit * 1e3
+    );
+    assert!(there <= limit && back <= limit, "{there} {back} > {limit}");
+}
+
 fn fixture() -> String {
     std::fs::read_to_string(root().join("fixtures/tnc_dmu85_rl.h")).unwrap()
 }

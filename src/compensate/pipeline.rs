@@ -384,8 +384,9 @@ impl Pass<'_> {
                 self.radius_tcp(&mode, before, &mut b)
             }
             _ => {
+                let added = b.out.summary.blocks_added;
                 run(&mut super::axes::AxesMode::default(), &mut b)?;
-                self.radius_tcp_none(before, &mut b)
+                self.radius_axes(before, added, &mut b)
             }
         }
     }
@@ -402,6 +403,51 @@ impl Pass<'_> {
             cx.first_col(),
             state,
             None,
+            out.summary,
+            cx.at,
+        )
+    }
+
+    /// A straight block in machine axes under tool radius compensation: its element
+    /// followed in the words' X, Y (see [`super::radius`]); `added`: the summary's blocks
+    /// added before it.
+    fn radius_axes(
+        &self,
+        before: Option<Before>,
+        added: usize,
+        b: &mut Block,
+    ) -> Result<(), Diagnostic> {
+        let Some((_, _, q0, q0_written)) = before else {
+            return Ok(());
+        };
+        let (cx, state, out) = (b.cx, &mut *b.state, &mut *b.out);
+        let (Some(x), Some(y), Some(z)) =
+            (self.tip_var(b'X'), self.tip_var(b'Y'), self.tip_var(b'Z'))
+        else {
+            return self.radius_block(
+                cx.line.number,
+                cx.first_col(),
+                state,
+                None,
+                out.summary,
+                cx.at,
+            );
+        };
+        let tip = |q: &[f64; MAX_AXES]| [q[x], q[y], q[z]];
+        let mv = super::radius::Move {
+            frame: None,
+            tip: [tip(&q0), tip(&state.pos.nominal)],
+            tip_written: [tip(&q0_written), tip(&state.emitted)],
+            q: [q0, state.pos.nominal],
+            q_written: [q0_written, state.emitted],
+            arc: None,
+            pieces: out.summary.blocks_added - added,
+        };
+        self.radius_block(
+            cx.line.number,
+            cx.first_col(),
+            state,
+            Some(mv),
             out.summary,
             cx.at,
         )
@@ -436,7 +482,7 @@ impl Pass<'_> {
             ));
         };
         let mv = super::radius::Move {
-            frame: &frame,
+            frame: Some(&frame),
             tip: [tip0, state.tip_nominal],
             tip_written: [tip0_written, state.tip_written],
             q: [q0, state.pos.nominal],

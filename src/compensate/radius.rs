@@ -202,8 +202,8 @@ pub(super) struct Section {
     side: RadiusSide,
     radius: f64,
     pending: Option<Element>,
-    /// The working plane its contour is in.
-    frame: WorkingPlane,
+    /// The working plane its contour is in (`None`: machine axes).
+    frame: Option<WorkingPlane>,
 }
 
 /// What the summary reports of the compensated sections.
@@ -227,7 +227,8 @@ pub(super) type ArcPair = ([f64; 2], f64, [f64; 2], f64);
 /// A block that moves, as the pass saw it: the tip words (in the plane) and axis values
 /// at its start and end, nominal and written, and for an arc its centres and sweep.
 pub(super) struct Move<'a> {
-    pub frame: &'a WorkingPlane,
+    /// The working plane; `None`: machine axes, the words X, Y, Z.
+    pub frame: Option<&'a WorkingPlane>,
     pub tip: [[f64; 3]; 2],
     pub tip_written: [[f64; 3]; 2],
     pub q: [[f64; MAX_AXES]; 2],
@@ -258,7 +259,7 @@ impl Pass<'_> {
         let Some(mv) = mv else {
             return Err(at(
                 col,
-                "a block nccomp does not follow as a contour element while tool radius compensation (RL/RR) is in force: only L and C/CP blocks in a working plane (PLANE, the rotary axes standing) are compensated there (expected R0 before it)".into(),
+                "a block nccomp does not follow as a contour element while tool radius compensation (RL/RR) is in force: only L blocks, and C/CP arcs kept as arcs in a working plane (PLANE; in machine axes an arc is written as pieces), are compensated there (expected R0 before it)".into(),
             ));
         };
         // Refusals point at this block: an element before it is checked once this one
@@ -322,7 +323,11 @@ impl Pass<'_> {
             length,
             reach,
         };
-        if state.radius.as_ref().is_some_and(|s| s.frame != *mv.frame) {
+        if state
+            .radius
+            .as_ref()
+            .is_some_and(|s| s.frame != mv.frame.copied())
+        {
             return Err(refuse(
                 "the working plane or the datum shift changed while tool radius compensation (RL/RR) is in force: the control's offset across the change is not followed (expected R0 before PLANE or CYCL DEF 7)".into(),
             ));
@@ -344,7 +349,7 @@ impl Pass<'_> {
                     side,
                     radius,
                     pending: Some(element(([0.0; 2], [0.0; 2]), true, 0.0)),
-                    frame: *mv.frame,
+                    frame: mv.frame.copied(),
                 });
             }
             (Some(mut section), Some(side)) if side == section.side => {
@@ -552,8 +557,20 @@ impl Pass<'_> {
     /// caller).
     fn radius_cylinder(&self, mv: &Move<'_>, length: f64) -> Option<Cylinder> {
         let n = self.kin.len();
+        let Some(frame) = mv.frame else {
+            // Machine axes: a unit offset in X, Y is one on their axes.
+            let mut along = [[0.0; MAX_AXES]; 2];
+            along[0][self.tip_var(b'X')?] = 1.0;
+            along[1][self.tip_var(b'Y')?] = 1.0;
+            return Some(Cylinder {
+                nominal: mv.q,
+                written: mv.q_written,
+                along,
+                radius: 0.0,
+            });
+        };
         let at = |w: &[f64; 3], from: &[f64; MAX_AXES]| {
-            self.plane_axes(mv.frame, &Vector3::from(*w), from, length)
+            self.plane_axes(frame, &Vector3::from(*w), from, length)
         };
         let top = mv.q[1];
         let w = mv.tip[1];
