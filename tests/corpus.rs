@@ -248,6 +248,10 @@ fn the_heidenhain_cam_programs_compensate_with_consecutive_block_numbers() {
         // CC/C arcs in a tilted working plane (hyperMILL's identity plane), kept as arcs
         // with a pole of their own where the compensated end needs one.
         ("hm_dmu85_W5246NS01007B11.h", "dmu85_ac_b11", "dmu85_ac", 1),
+        // Pockets milled with tool radius compensation (RL): the contour's L and C blocks
+        // compensated, the error field's change over the 3 mm radius and the offset's own
+        // change bounded within half the tolerance.
+        ("hm_dmu85_W5246NS01007B15.h", "dmu85_ac_b15", "dmu85_ac", 1),
         // CP helices (IPA, IZ) and C arcs in a plane tilted to the horizontal.
         (
             "hm_trimill_W5269NS01002A16.h",
@@ -336,6 +340,7 @@ fn nccomp_verify_passes_on_every_compensated_cam_program() {
         ("hm_dmc105v_W5246NS01007A10.h", "dmc105v", "three_axis_tnc"),
         ("hm_dmu85_W5246NS01007B10.h", "dmu85_ac", "dmu85_ac"),
         ("hm_dmu85_W5246NS01007B11.h", "dmu85_ac_b11", "dmu85_ac"),
+        ("hm_dmu85_W5246NS01007B15.h", "dmu85_ac_b15", "dmu85_ac"),
         (
             "hm_trimill_W5269NS01002A16.h",
             "trimill_bc_a16",

@@ -29,6 +29,7 @@ use crate::kinematics::{MAX_AXES, Model};
 /// The cylinder a cycle's motion stays in: its axis from its deepest point (index 0) to
 /// its set-up clearance (index 1), nominal and as the control is told, and the axis values
 /// a unit offset along the plane's X and Y takes.
+#[derive(Debug, Clone)]
 pub(super) struct Cylinder {
     pub nominal: [[f64; MAX_AXES]; 2],
     pub written: [[f64; MAX_AXES]; 2],

@@ -15,6 +15,7 @@ mod lathe;
 mod pipeline;
 mod plane;
 mod presolve;
+mod radius;
 mod split;
 pub(crate) mod stream;
 mod summary;
@@ -22,6 +23,7 @@ mod tcp;
 mod tnc_cycles;
 mod writing;
 
+pub use radius::RadiusReport;
 pub use summary::{Extreme, Sample, Summary};
 
 use crate::diag::{Diagnostic, Error};
@@ -242,6 +244,8 @@ struct State {
     hole_steps: Option<Vec<crate::program::tnc_cycles::HoleStep>>,
     /// In a TNC program: the F word in force (`F500`, `FQ1`), the last one programmed.
     feed: Option<String>,
+    /// Tool radius compensation (RL/RR) being followed: the element waiting for the next.
+    radius: Option<radius::Section>,
 }
 
 /// The deviation the real machine has at the axis values `told` from the nominal pose at
@@ -549,6 +553,7 @@ impl<'m> Compensator<'m> {
             around_end: None,
             hole_steps: None,
             feed: None,
+            radius: None,
             modal,
             pass,
             parked: vec![None; self.machine.axes.len()],
@@ -670,6 +675,27 @@ impl<'m> Pass<'m> {
             pass.hold |= pass.idle;
         }
         Ok(pass)
+    }
+
+    /// The path tolerance for the block being compensated: under tool radius compensation
+    /// (RL/RR) half the options' (the offset's bound has the other half, see
+    /// [`radius`]).
+    fn path_tolerance(&self, state: &State) -> Option<crate::kinematics::path::PathTolerance> {
+        self.options.path.map(|mut t| {
+            if state.modal.radius_comp.is_some() || state.radius.is_some() {
+                t.position /= 2.0;
+            }
+            t
+        })
+    }
+
+    /// [`Pass::path_tolerance`], the default where the options give none.
+    fn path_tolerance_or_default(&self, state: &State) -> crate::kinematics::path::PathTolerance {
+        let mut t = self.options.path.unwrap_or_default();
+        if state.modal.radius_comp.is_some() || state.radius.is_some() {
+            t.position /= 2.0;
+        }
+        t
     }
 
     /// How far a straight piece that replaces an arc may lie from the arc (mm): half a

@@ -188,6 +188,10 @@ pub(super) fn run<M: Mode>(mode: &mut M, b: &mut Block) -> Result<(), Diagnostic
     Ok(())
 }
 
+/// Where a block under tool radius compensation starts: the tip words nominal and
+/// written, the axis values nominal and written.
+type Before = ([f64; 3], [f64; 3], [f64; MAX_AXES], [f64; MAX_AXES]);
+
 /// Where a block's results go.
 pub(super) struct Out<'a> {
     pub edits: &'a mut Vec<Edit>,
@@ -296,6 +300,22 @@ impl Pass<'_> {
             ));
         }
         state.around_end = None;
+        let radius = state.modal.radius_comp.is_some() || state.radius.is_some();
+        if radius
+            && matches!(
+                cx.motion.kind,
+                MoveKind::Machine | MoveKind::Home | MoveKind::ToPlane | MoveKind::Cycle
+            )
+        {
+            self.radius_block(
+                cx.line.number,
+                cx.first_col(),
+                state,
+                None,
+                out.summary,
+                cx.at,
+            )?;
+        }
         if matches!(cx.motion.kind, MoveKind::Machine | MoveKind::Home) {
             self.leave_coordinates(cx, state);
             return Ok(());
@@ -326,6 +346,13 @@ impl Pass<'_> {
         }
         // Under TCP or a tilted working plane, X, Y, Z are the tool tip.
         let tip_words = state.modal.tcp || state.modal.working_plane.is_some();
+        // Where a block under tool radius compensation starts, in the plane and in axes.
+        let before = radius.then_some((
+            state.tip_nominal,
+            state.tip_written,
+            state.pos.nominal,
+            state.emitted,
+        ));
         let mut b = Block {
             pass: self,
             cx,
@@ -343,12 +370,134 @@ impl Pass<'_> {
                 _ => run(&mut super::cycles::CycleMode::default(), &mut b),
             },
             MoveKind::Arc { clockwise } if tip_words => {
-                run(&mut super::tcp::TcpMode::arc(clockwise), &mut b)
+                let mut mode = super::tcp::TcpMode::arc(clockwise);
+                run(&mut mode, &mut b)?;
+                self.radius_tcp(&mode, before, &mut b)
             }
-            MoveKind::Arc { clockwise } => run(&mut super::arcs::ArcMode::new(clockwise), &mut b),
-            _ if tip_words => run(&mut super::tcp::TcpMode::line(), &mut b),
-            _ => run(&mut super::axes::AxesMode::default(), &mut b),
+            MoveKind::Arc { clockwise } => {
+                run(&mut super::arcs::ArcMode::new(clockwise), &mut b)?;
+                self.radius_tcp_none(before, &mut b)
+            }
+            _ if tip_words => {
+                let mut mode = super::tcp::TcpMode::line();
+                run(&mut mode, &mut b)?;
+                self.radius_tcp(&mode, before, &mut b)
+            }
+            _ => {
+                let added = b.out.summary.blocks_added;
+                run(&mut super::axes::AxesMode::default(), &mut b)?;
+                self.radius_axes(before, added, &mut b)
+            }
         }
+    }
+
+    /// A block outside a working plane under tool radius compensation: refused (see
+    /// [`super::radius`]).
+    fn radius_tcp_none(&self, before: Option<Before>, b: &mut Block) -> Result<(), Diagnostic> {
+        if before.is_none() {
+            return Ok(());
+        }
+        let (cx, state, out) = (b.cx, &mut *b.state, &mut *b.out);
+        self.radius_block(
+            cx.line.number,
+            cx.first_col(),
+            state,
+            None,
+            out.summary,
+            cx.at,
+        )
+    }
+
+    /// A straight block in machine axes under tool radius compensation: its element
+    /// followed in the words' X, Y (see [`super::radius`]); `added`: the summary's blocks
+    /// added before it.
+    fn radius_axes(
+        &self,
+        before: Option<Before>,
+        added: usize,
+        b: &mut Block,
+    ) -> Result<(), Diagnostic> {
+        let Some((_, _, q0, q0_written)) = before else {
+            return Ok(());
+        };
+        let (cx, state, out) = (b.cx, &mut *b.state, &mut *b.out);
+        let (Some(x), Some(y), Some(z)) =
+            (self.tip_var(b'X'), self.tip_var(b'Y'), self.tip_var(b'Z'))
+        else {
+            return self.radius_block(
+                cx.line.number,
+                cx.first_col(),
+                state,
+                None,
+                out.summary,
+                cx.at,
+            );
+        };
+        let tip = |q: &[f64; MAX_AXES]| [q[x], q[y], q[z]];
+        let mv = super::radius::Move {
+            frame: None,
+            tip: [tip(&q0), tip(&state.pos.nominal)],
+            tip_written: [tip(&q0_written), tip(&state.emitted)],
+            q: [q0, state.pos.nominal],
+            q_written: [q0_written, state.emitted],
+            arc: None,
+            pieces: out.summary.blocks_added - added,
+        };
+        self.radius_block(
+            cx.line.number,
+            cx.first_col(),
+            state,
+            Some(mv),
+            out.summary,
+            cx.at,
+        )
+    }
+
+    /// A block in a working plane under tool radius compensation: its element followed
+    /// (see [`super::radius`]).
+    fn radius_tcp(
+        &self,
+        mode: &super::tcp::TcpMode,
+        before: Option<Before>,
+        b: &mut Block,
+    ) -> Result<(), Diagnostic> {
+        let Some((tip0, tip0_written, q0, q0_written)) = before else {
+            return Ok(());
+        };
+        let (cx, state, out) = (b.cx, &mut *b.state, &mut *b.out);
+        let Some(frame) = state.modal.working_plane.filter(|_| !state.modal.tcp) else {
+            return self.radius_block(
+                cx.line.number,
+                cx.first_col(),
+                state,
+                None,
+                out.summary,
+                cx.at,
+            );
+        };
+        let Ok(arc) = mode.radius_arc(&tip0_written, &state.tip_written) else {
+            return Err(cx.refuse(
+                cx.first_col(),
+                "an arc under tool radius compensation (RL/RR) that nccomp does not keep as an arc about a pole in the working plane's X-Y: the control's offset of what would be written is not followed (expected C or CP about a CC in X-Y, or R0)".into(),
+            ));
+        };
+        let mv = super::radius::Move {
+            frame: Some(&frame),
+            tip: [tip0, state.tip_nominal],
+            tip_written: [tip0_written, state.tip_written],
+            q: [q0, state.pos.nominal],
+            q_written: [q0_written, state.emitted],
+            arc,
+            pieces: mode.pieces(),
+        };
+        self.radius_block(
+            cx.line.number,
+            cx.first_col(),
+            state,
+            Some(mv),
+            out.summary,
+            cx.at,
+        )
     }
 
     /// G53, G28, G30: the block stays as it is, and the axes it sends to machine positions

@@ -32,7 +32,7 @@ impl Pass<'_> {
         state: &mut State,
         out: &mut Out<'_>,
     ) {
-        let Some(tolerance) = &self.options.path else {
+        let Some(tolerance) = &self.path_tolerance(state) else {
             return;
         };
         if self.within_bound((previous, from), end, tolerance, state) {

@@ -530,6 +530,14 @@ impl<'c, 'm> Run<'c, 'm> {
             .read(line, tokens, state, summary, &at, motion)
             .and_then(|moves| {
                 comp.follow_shift(state, moves).map_err(|m| at(0, m))?;
+                if state.radius.is_some() && state.modal.program_end == Some(line.number) {
+                    // The last element under RL/RR is checked when the block after it is
+                    // known: the program may not end before that.
+                    return Err(at(
+                        0,
+                        "the program ends with tool radius compensation (RL/RR) in force: its last contour element's offset is not followed to an end (expected R0 in the last move before the end)".into(),
+                    ));
+                }
                 if !moves {
                     return Ok(());
                 }

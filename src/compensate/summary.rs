@@ -155,6 +155,9 @@ pub struct Summary {
     /// The copies of TNC labels written for calls that run them in another state: label,
     /// copy, and the line of the call that first named the copy.
     pub label_copies: Vec<(String, String, usize)>,
+    /// Tool radius compensation (RL/RR) sections compensated, with the bound on what the
+    /// offset adds.
+    pub radius: super::radius::RadiusReport,
 }
 
 impl Summary {
@@ -277,6 +280,17 @@ impl Summary {
                 count(self.cycles_around, "cycle call"),
                 self.around_bound.value * 1e3,
                 self.around_bound.line
+            ));
+        }
+        if self.radius.sections > 0 {
+            out.push(format!(
+                "{} under tool radius compensation (RL/RR) in {}, compensated as the contour: the offset by the tool radius of {:.4} mm ([tool] {}) adds at most {:.3} µm (line {}), the error field's change over it and the offset's own change included",
+                count(self.radius.moves, "move"),
+                count(self.radius.sections, "section"),
+                self.radius.radius,
+                self.radius.source,
+                self.radius.bound * 1e3,
+                self.radius.line
             ));
         }
         if self.holes_written_out > 0 {

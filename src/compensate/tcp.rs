@@ -132,6 +132,38 @@ struct Polar {
 }
 
 impl TcpMode {
+    /// Under a working plane, what tool radius compensation follows of the block: the
+    /// nominal arc's centre and sweep and the written arc's (in the plane's X, Y), for an
+    /// arc about a pole in X-Y kept as an arc; `Err(())` for an arc it cannot follow.
+    pub(super) fn radius_arc(
+        &self,
+        tip0_written: &[f64; 3],
+        tip1_written: &[f64; 3],
+    ) -> Result<Option<super::radius::ArcPair>, ()> {
+        let Some(arc) = &self.tip_arc else {
+            return Ok(None);
+        };
+        if (arc.a, arc.b) != (0, 1) {
+            return Err(());
+        }
+        let centre = [arc.centre.0, arc.centre.1];
+        let written = match &self.kept {
+            Some(KeptCentre::Pole(_, c, _)) => *c,
+            _ => return Err(()),
+        };
+        let angle = |p: &[f64; 3], c: [f64; 2]| (p[1] - c[1]).atan2(p[0] - c[0]);
+        let wrap = |x: f64| (x + std::f64::consts::PI).rem_euclid(TAU) - std::f64::consts::PI;
+        let th1 = arc.th0 + arc.sweep;
+        let d0 = wrap(angle(tip0_written, written) - arc.th0);
+        let d1 = wrap(angle(tip1_written, written) - th1);
+        Ok(Some((centre, arc.sweep, written, arc.sweep + d1 - d0)))
+    }
+
+    /// Straight pieces inserted before the block.
+    pub(super) fn pieces(&self) -> usize {
+        self.pieces.len()
+    }
+
     pub(super) fn line() -> Self {
         Self::new(None)
     }
@@ -448,7 +480,7 @@ impl Mode for TcpMode {
                 let piece = self.point(pass, cx, k as f64 / count as f64, hold, state)?;
                 self.pieces.push(piece);
             }
-        } else if let Some(tolerance) = &pass.options.path
+        } else if let Some(tolerance) = &pass.path_tolerance(state)
             && !state.modal.rapid
         {
             let mut pieces = Vec::new();
@@ -1042,7 +1074,9 @@ impl TcpMode {
         }
         let n = pass.kin.len();
         let length = state.modal.length;
-        let tol = pass.options.path.unwrap_or_default();
+        let tol = pass
+            .path_tolerance(state)
+            .unwrap_or_else(|| pass.path_tolerance_or_default(state));
         let full = arc.sweep.abs() > TAU - 1e-9;
         // The middle as solved (not rounded: with no errors it lies on the programmed
         // circle, and the centre comes out as programmed).

@@ -858,11 +858,19 @@ fn resolution(doc: &Doc, v: &Spanned<DeValue>) -> Result<Resolution> {
 fn tool(doc: &Doc, v: &Spanned<DeValue>, axes: &[Axis]) -> Result<Tool> {
     let t = doc.table(
         v,
-        "[tool], a table with `length`, `lengths`, `named_lengths` and `change_moves`",
+        "[tool], a table with `length`, `lengths`, `named_lengths`, `radii`, `named_radii`, `max_radius` and `change_moves`",
     )?;
     doc.check_keys(
         t,
-        &["length", "lengths", "named_lengths", "change_moves"],
+        &[
+            "length",
+            "lengths",
+            "named_lengths",
+            "radii",
+            "named_radii",
+            "max_radius",
+            "change_moves",
+        ],
         "[tool]",
     )?;
     let mut tool = Tool::default();
@@ -913,6 +921,59 @@ fn tool(doc: &Doc, v: &Spanned<DeValue>, axes: &[Axis]) -> Result<Tool> {
             )?;
             tool.named_lengths.insert(name, length);
         }
+    }
+    // Radii for tool radius compensation (RL/RR, G41/G42): from 0 to 500 mm.
+    let radius_bounds = Bounds {
+        lo: 0.0,
+        hi: 500.0,
+        unit: "mm",
+    };
+    if let Some(v) = t.get("radii") {
+        let table = doc.table(
+            v,
+            "tool `radii`, a table of radii by tool number such as `{ 1 = 3.0 }`",
+        )?;
+        for (key, value) in table.iter() {
+            let n: u32 = key.get_ref().parse().map_err(|_| {
+                doc.err(
+                    key.span(),
+                    format!(
+                        "tool radius key `{}`: expected a tool number (1, 2, ...)",
+                        key.get_ref()
+                    ),
+                )
+            })?;
+            let r = doc.number_in(value, &format!("the radius of tool {n}"), radius_bounds)?;
+            tool.radii.insert(n, r);
+        }
+    }
+    if let Some(v) = t.get("named_radii") {
+        let table = doc.table(
+            v,
+            "tool `named_radii`, a table of radii by tool name such as `{ \"BALL D10\" = 5.0 }`",
+        )?;
+        for (key, value) in table.iter() {
+            let name = key.get_ref().to_string();
+            if name.is_empty() {
+                return Err(doc.err(
+                    key.span(),
+                    "an empty tool name in `named_radii`: expected the name a program calls the tool by",
+                ));
+            }
+            let r = doc.number_in(
+                value,
+                &format!("the radius of tool \"{name}\""),
+                radius_bounds,
+            )?;
+            tool.named_radii.insert(name, r);
+        }
+    }
+    if let Some(v) = t.get("max_radius") {
+        tool.max_radius = Some(doc.number_in(
+            v,
+            "tool `max_radius`, the largest radius of any tool the programs call",
+            radius_bounds,
+        )?);
     }
     if let Some(v) = t.get("change_moves") {
         let what = "tool `change_moves`, the axes a tool change sends to the change position, such as [\"Z\"] ([] when it moves none)";

@@ -182,6 +182,14 @@ pub struct Tool {
     pub lengths: BTreeMap<u32, f64>,
     /// By name: TOOL CALL "name", T="name" (machine file `named_lengths`).
     pub named_lengths: BTreeMap<String, f64>,
+    /// Tool radii for tool radius compensation (RL/RR, G41/G42), by number (machine file
+    /// `radii`) ...
+    pub radii: BTreeMap<u32, f64>,
+    /// ... by name (`named_radii`) ...
+    pub named_radii: BTreeMap<String, f64>,
+    /// ... and a bound for any tool (`max_radius`), used where neither gives the called
+    /// tool's.
+    pub max_radius: Option<f64>,
     /// The program letters of the axes a tool change (M6, TOOL CALL) sends to the change
     /// position, bit `letter - 'A'` (machine file `change_moves`; default Z): they are
     /// unknown after the change, as after G28.
@@ -194,6 +202,9 @@ impl Default for Tool {
             length: 0.0,
             lengths: BTreeMap::new(),
             named_lengths: BTreeMap::new(),
+            radii: BTreeMap::new(),
+            named_radii: BTreeMap::new(),
+            max_radius: None,
             change_moves: 1 << (b'Z' - b'A'),
         }
     }

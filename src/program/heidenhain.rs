@@ -843,6 +843,8 @@ impl Reader<'_> {
         };
         let mut clockwise = None;
         let mut words = LWords::default();
+        // R0, RL or RR in the block: the side (RL: left), and its column.
+        let mut comp: Option<(Option<bool>, usize)> = None;
         for &i in &sig[1..] {
             let t = &tokens[i];
             let raw = text(content, t);
@@ -870,11 +872,10 @@ impl Reader<'_> {
                     {
                         return Err(at(
                             t.span.start,
-                            format!(
-                                "`{raw}` in an arc: expected R0 (radius compensation is not compensated)"
-                            ),
+                            format!("`{raw}` in an arc: expected R0, RL or RR"),
                         ));
                     }
+                    comp = Some((None, t.span.start));
                 }
                 TokenKind::Word(w)
                     if (letters.contains(&w.letter) && kind != "CP") || w.letter == third =>
@@ -925,14 +926,7 @@ impl Reader<'_> {
                     "DR+" => clockwise = Some(false),
                     "DR-" => clockwise = Some(true),
                     "FMAX" | "FAUTO" => {}
-                    "RL" | "RR" => {
-                        return Err(at(
-                            t.span.start,
-                            format!(
-                                "tool radius compensation ({raw}) cannot be compensated: the path depends on the tool radius at run time (expected R0)"
-                            ),
-                        ));
-                    }
+                    "RL" | "RR" => comp = Some((Some(raw == "RL"), t.span.start)),
                     _ if kind == "CP" && (raw.starts_with("IPA") || raw.starts_with("PA")) => {
                         let incremental = raw.starts_with('I');
                         let value = &raw[if incremental { 3 } else { 2 }..];
@@ -992,7 +986,7 @@ impl Reader<'_> {
                         return Err(at(
                             t.span.start,
                             format!(
-                                "`{raw}` is not expected in a {kind} arc (expected its end, DR+ or DR-, F, R0)"
+                                "`{raw}` is not expected in a {kind} arc (expected its end, DR+ or DR-, F, R0, RL or RR)"
                             ),
                         ));
                     }
@@ -1044,6 +1038,7 @@ impl Reader<'_> {
         modal.rapid = false;
         modal.clockwise = clockwise;
         modal.arc_absolute = true;
+        radius_comp(modal, comp, true, at)?;
         out.centre = centre.map(|[a, b]| {
             if modal.inch {
                 [a * super::INCH, b * super::INCH]
@@ -1089,6 +1084,8 @@ impl Reader<'_> {
         }
         let mut delta = 0.0;
         let mut delta_col = None;
+        // DR: the radius's delta (mm).
+        let mut delta_r = 0.0;
         // The tool called: by number or by name, and the column of its word.
         let mut number = None;
         let mut name = None;
@@ -1114,6 +1111,18 @@ impl Reader<'_> {
                 };
                 delta += if modal.inch { dl * super::INCH } else { dl };
                 delta_col = Some(tokens[i].span.start);
+                continue;
+            }
+            if let Some(dr) = t.strip_prefix("DR")
+                && dr.starts_with(['+', '-'])
+            {
+                let Ok(dr) = dr.parse::<f64>() else {
+                    return Err(at(
+                        tokens[i].span.start,
+                        format!("`{t}`: expected the radius's delta as a number (DR+0.1)"),
+                    ));
+                };
+                delta_r += if modal.inch { dr * super::INCH } else { dr };
                 continue;
             }
             if matches!(t, "X" | "Y") {
@@ -1145,6 +1154,14 @@ impl Reader<'_> {
             })?,
             // No tool called: the tool in the spindle stays, with its length.
             (None, None) => {
+                if delta_r != 0.0 {
+                    // Which tool's radius DR adds to is the control's state: only a bound
+                    // for any tool still holds.
+                    modal.tool_radius = tool.max_radius.map(|r| super::ToolRadius {
+                        radius: r + delta_r.abs(),
+                        source: super::RadiusSource::Max,
+                    });
+                }
                 if let Some(col) = delta_col {
                     return Err(at(
                         col,
@@ -1156,6 +1173,28 @@ impl Reader<'_> {
         };
         modal.length = base + delta;
         modal.tool = number;
+        // The radius RL/RR offsets by: the tool's own plus DR, or a bound for any tool.
+        let own = match (number, name) {
+            (Some(n), _) => tool
+                .radii
+                .get(&n)
+                .map(|&r| (r, super::RadiusSource::Number)),
+            (None, Some(name)) => tool
+                .named_radii
+                .get(name)
+                .map(|&r| (r, super::RadiusSource::Name)),
+            (None, None) => None,
+        };
+        modal.tool_radius = match own {
+            Some((r, source)) => Some(super::ToolRadius {
+                radius: (r + delta_r).abs(),
+                source,
+            }),
+            None => tool.max_radius.map(|r| super::ToolRadius {
+                radius: r + delta_r.abs(),
+                source: super::RadiusSource::Max,
+            }),
+        };
         // The change moves the machine file's `change_moves` axes.
         let axes = self.axes(modal.chain);
         let letters = tool.change_moves;
@@ -1185,6 +1224,8 @@ impl Reader<'_> {
     ) -> Result<bool, Diagnostic> {
         let axes = &self.chains[modal.chain];
         let mut words = LWords::default();
+        // R0, RL or RR in the block: the side (RL: left), and its column.
+        let mut comp: Option<(Option<bool>, usize)> = None;
         let mut k = 1;
         while k < sig.len() {
             let i = sig[k];
@@ -1209,6 +1250,7 @@ impl Reader<'_> {
                             format!("`{raw}` in an L block: expected R0, RL or RR"),
                         ));
                     }
+                    comp = Some((None, at_t));
                 }
                 TokenKind::Word(w) => {
                     let Some(v) = axes.var_of_letter[(w.letter - b'A') as usize] else {
@@ -1292,14 +1334,7 @@ impl Reader<'_> {
                         words.to_limit = true;
                         k += 1;
                     }
-                    "RL" | "RR" => {
-                        return Err(at(
-                            at_t,
-                            format!(
-                                "tool radius compensation ({raw}) cannot be compensated: the path depends on the tool radius at run time (expected R0)"
-                            ),
-                        ));
-                    }
+                    "RL" | "RR" => comp = Some((Some(raw == "RL"), at_t)),
                     _ if raw.len() > 1
                         && raw.starts_with('I')
                         && raw.as_bytes()[1].is_ascii_uppercase() =>
@@ -1326,6 +1361,7 @@ impl Reader<'_> {
         modal.rapid = words.rapid;
         modal.motion = Some(Motion::Line);
         self.l_after(modal, tnc, &words, at, out)?;
+        radius_comp(modal, comp, false, at)?;
         let n = axes.len();
         let moves = out.axis_words[..n].iter().any(Option::is_some);
         if !words.plane_words.is_empty() {
@@ -2297,6 +2333,73 @@ pub fn number_of(content: &[u8], tokens: &[Token]) -> Option<u64> {
         .ok()?
         .parse()
         .ok()
+}
+
+/// R0, RL or RR in an L or arc block (`comp`: the side, RL being left, or `None` for R0,
+/// and its column): tool radius compensation from this block on, on that side of the
+/// contour, or cancelled. A block without any keeps the state. RL/RR need the called
+/// tool's radius (the machine file's `[tool]` radii) and are refused under TCP. The
+/// control begins and ends radius compensation in straight-line blocks only (TNC 620 ISO
+/// programming manual, "Fundamentals of path functions": "You cannot activate radius
+/// compensation in a circle block"): an arc that would is refused, one that repeats the
+/// side in force is read.
+fn radius_comp(
+    modal: &mut Modal,
+    comp: Option<(Option<bool>, usize)>,
+    arc: bool,
+    at: At<'_>,
+) -> Result<(), Diagnostic> {
+    if arc
+        && let Some((side, col)) = comp
+        && side.map(|left| {
+            if left {
+                super::RadiusSide::Left
+            } else {
+                super::RadiusSide::Right
+            }
+        }) != modal.radius_comp
+    {
+        return Err(at(
+            col,
+            "an arc that begins, changes or ends tool radius compensation (RL, RR, R0): the control does that in straight-line (L) blocks only (expected the arc to keep the compensation in force)".into(),
+        ));
+    }
+    let Some((side, col)) = comp else {
+        if modal.tcp && modal.radius_comp.is_some() {
+            return Err(at(
+                0,
+                "tool-centre-point control (M128, FUNCTION TCPM) with tool radius compensation (RL/RR) in force: the control's 3-D offset is not followed by nccomp (expected R0 before M128)".into(),
+            ));
+        }
+        return Ok(());
+    };
+    let Some(left) = side else {
+        modal.radius_comp = None;
+        return Ok(());
+    };
+    let name = if left { "RL" } else { "RR" };
+    if modal.tcp {
+        return Err(at(
+            col,
+            format!(
+                "tool radius compensation ({name}) under tool-centre-point control (M128, FUNCTION TCPM) cannot be compensated: the control offsets the tool in 3-D there (expected R0, or the contour programmed as the tool centre path)"
+            ),
+        ));
+    }
+    if modal.tool_radius.is_none() {
+        return Err(at(
+            col,
+            format!(
+                "tool radius compensation ({name}) needs the called tool's radius: give it in the machine file's [tool] radii / named_radii / max_radius (the control offsets the contour by it, and the correction at the offset point differs from the contour's)"
+            ),
+        ));
+    }
+    modal.radius_comp = Some(if left {
+        super::RadiusSide::Left
+    } else {
+        super::RadiusSide::Right
+    });
+    Ok(())
 }
 
 /// The words a block inserted before an L block repeats: its radius compensation (R0;

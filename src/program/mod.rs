@@ -102,6 +102,44 @@ impl Default for BlockMotion {
     }
 }
 
+/// The side of the contour tool radius compensation puts the tool on (TNC RL/RR, ISO
+/// G41/G42), looking along the direction of travel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RadiusSide {
+    Left,
+    Right,
+}
+
+/// Where the radius tool radius compensation offsets by comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RadiusSource {
+    /// The machine file's `[tool] radii`, by the called tool's number.
+    Number,
+    /// `[tool] named_radii`, by the called tool's name.
+    Name,
+    /// `[tool] max_radius`: a bound for any tool.
+    Max,
+}
+
+impl RadiusSource {
+    /// The machine file's key.
+    pub fn key(self) -> &'static str {
+        match self {
+            RadiusSource::Number => "radii",
+            RadiusSource::Name => "named_radii",
+            RadiusSource::Max => "max_radius",
+        }
+    }
+}
+
+/// The radius tool radius compensation offsets the contour by (mm; the tool's radius and
+/// the call's delta DR, or a bound for any tool), and where it comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ToolRadius {
+    pub radius: f64,
+    pub source: RadiusSource,
+}
+
 /// What the lathe's spindle does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Spindle {
@@ -326,6 +364,10 @@ pub struct Modal {
     pub tnc: Option<Box<heidenhain::Tnc>>,
     /// What the Sinumerik front end keeps between blocks.
     pub siemens: Option<Box<sinumerik::Siemens>>,
+    /// Tool radius compensation in force (TNC RL/RR): the contour's side the tool runs on.
+    pub radius_comp: Option<RadiusSide>,
+    /// The called tool's radius for it, where the machine file gives one.
+    pub tool_radius: Option<ToolRadius>,
 }
 
 /// Cut a line into tokens in the program's dialect, with the parameters the program has set
@@ -445,6 +487,11 @@ impl Modal {
             dialect: crate::nc::Dialect::Iso,
             tnc: None,
             siemens: None,
+            radius_comp: None,
+            tool_radius: machine.tool.max_radius.map(|radius| ToolRadius {
+                radius,
+                source: RadiusSource::Max,
+            }),
         }
     }
 
