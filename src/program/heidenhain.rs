@@ -155,42 +155,67 @@ pub struct Body {
 impl Labels {
     /// The labels of program `src`.
     pub fn scan(src: &[u8]) -> Labels {
-        let mut tokens = Vec::new();
-        let mut starts: Vec<(String, usize, usize)> = Vec::new();
-        let all: Vec<nc::Line<'_>> = nc::lines(src).collect();
-        let mut ends = Vec::new();
-        for (k, line) in all.iter().enumerate() {
-            // Only a line that says LBL can be one: the rest are not cut into tokens.
-            if memchr::memmem::find(line.content, b"LBL").is_none() {
-                continue;
-            }
-            nc::heidenhain::parse_line(line.content, &mut tokens);
-            let sig = significant(line.content, &tokens);
-            if sig.first().map(|&i| text(line.content, &tokens[i])) != Some("LBL") {
-                continue;
-            }
-            let Some(name) = label_name(line.content, &tokens, &sig[1..]) else {
-                continue;
-            };
-            if name == "0" {
-                ends.push(k);
-            } else {
-                starts.push((name, k, line.number));
+        let mut scan = LabelScan::default();
+        for line in nc::lines(src) {
+            scan.line(line.number, line.content);
+        }
+        scan.finish()
+    }
+}
+
+/// [`Labels::scan`] line by line, for a program read in chunks: a first pass that keeps
+/// only the labels' bodies, so that the pass after it can stream the program.
+#[derive(Debug, Default)]
+pub struct LabelScan {
+    labels: Labels,
+    /// The labels since the last `LBL 0`: each line goes into their bodies.
+    open: Vec<String>,
+    tokens: Vec<Token>,
+}
+
+impl LabelScan {
+    /// The program's next line.
+    pub fn line(&mut self, number: usize, content: &[u8]) {
+        let label = self.label(content);
+        if label.as_deref() == Some("0") {
+            self.open.clear();
+            return;
+        }
+        for name in &self.open {
+            if let Some(body) = self.labels.bodies.get_mut(name) {
+                body.lines.push((number, content.to_vec()));
             }
         }
-        let mut bodies = HashMap::new();
-        for (name, k, number) in starts {
-            let end = ends.iter().copied().find(|&e| e > k).unwrap_or(all.len());
-            let lines = all[k + 1..end]
-                .iter()
-                .map(|l| (l.number, l.content.to_vec()))
-                .collect();
-            bodies.entry(name).or_insert(Body {
-                line: number,
-                lines,
-            });
+        // A label defined twice keeps its first body.
+        if let Some(name) = label
+            && !self.labels.bodies.contains_key(&name)
+        {
+            self.labels.bodies.insert(
+                name.clone(),
+                Body {
+                    line: number,
+                    lines: Vec::new(),
+                },
+            );
+            self.open.push(name);
         }
-        Labels { bodies }
+    }
+
+    /// The name a `LBL` line gives.
+    fn label(&mut self, content: &[u8]) -> Option<String> {
+        // Only a line that says LBL can be one: the rest are not cut into tokens.
+        memchr::memmem::find(content, b"LBL")?;
+        nc::heidenhain::parse_line(content, &mut self.tokens);
+        let tokens = &self.tokens;
+        let sig = significant(content, tokens);
+        if sig.first().map(|&i| text(content, &tokens[i])) != Some("LBL") {
+            return None;
+        }
+        label_name(content, tokens, &sig[1..])
+    }
+
+    pub fn finish(self) -> Labels {
+        self.labels
     }
 }
 
