@@ -203,7 +203,7 @@ impl Pass<'_> {
     ) -> Result<(Solution, Vector3<f64>, Vector3<f64>), Diagnostic> {
         let (top, _) = self.solve(hole.top, hold, cx, state)?;
         self.check_travel(&top.q, hole.col, cx)?;
-        if end.position_residual > 1e-6 {
+        if self.missed(end) {
             return Err(refuse(format!(
                 "the tool cannot be put at the hole's bottom: the solve leaves it {:.2} µm off ({})",
                 end.position_residual * 1e3,

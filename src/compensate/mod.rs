@@ -158,6 +158,11 @@ struct Pass<'m> {
     /// The solve's options for machine-axis words: the linear axes take up the rounding
     /// of the rotary words (under TCP or a plane the controller places the tip itself).
     axes_solve: crate::kinematics::SolveOptions,
+    /// The compensation solve's options elsewhere (under TCP, in a plane, the pieces of a
+    /// split move or an arc): design/model.md's residual, a tenth of the resolution. The
+    /// controller's own (nominal) solves keep `options.solve`'s tighter tolerances: they
+    /// stand for a controller that computes exactly.
+    comp_solve: crate::kinematics::SolveOptions,
 }
 
 /// The pass's state between blocks: the program's modal state (as the reader follows it)
@@ -636,13 +641,20 @@ impl<'m> Pass<'m> {
             write_order: Vec::new(),
             shift: [0.0; MAX_AXES],
             rollover: 0,
-            axes_solve: crate::kinematics::SolveOptions {
-                rotary_rounding: Some((
-                    decimals_for(machine.resolution.rotary),
-                    machine.resolution.linear / 4.0,
-                )),
-                ..options.solve
-            },
+            axes_solve: options.solve,
+            comp_solve: options.solve,
+        };
+        pass.comp_solve = crate::kinematics::SolveOptions {
+            position_tolerance: (machine.resolution.linear / 10.0)
+                .max(options.solve.position_tolerance),
+            angle_tolerance: (machine.resolution.rotary.to_radians() / 10.0)
+                .max(options.solve.angle_tolerance),
+            ..options.solve
+        };
+        pass.axes_solve = crate::kinematics::SolveOptions {
+            rotary_rounding: Some((pass.decimals.1, machine.resolution.linear / 4.0)),
+            written: Some(pass.decimals),
+            ..pass.comp_solve
         };
         pass.rollover = (0..kin.len())
             .filter(|&v| machine.axes[kin.axes()[v]].rollover)
@@ -769,9 +781,16 @@ impl<'m> Pass<'m> {
     }
 
     /// The solve's options for a block in `state`'s modes.
+    /// Whether a compensation solve fell short of its target (a pose out of reach, an
+    /// axis held): its residual is above the solve's tolerance (a tenth of the
+    /// resolution, design/model.md), and above a micrometre's thousandth in any case.
+    fn missed(&self, sol: &crate::kinematics::Solution) -> bool {
+        sol.position_residual > self.comp_solve.position_tolerance.max(1e-6)
+    }
+
     fn solve_options(&self, state: &State) -> &crate::kinematics::SolveOptions {
         if state.modal.tcp || state.modal.working_plane.is_some() {
-            &self.options.solve
+            &self.comp_solve
         } else {
             &self.axes_solve
         }

@@ -629,7 +629,7 @@ impl Pass<'_> {
             }
         }
         let word_col = |v: usize| cx.motion.axis_words[v].map(|i| cx.col(i));
-        if at_limit != 0 && sol.position_residual > 1e-6 {
+        if at_limit != 0 && self.missed(&sol) {
             let v = at_limit.trailing_zeros() as usize;
             return Err(cx
                 .refuse(
@@ -741,12 +741,16 @@ impl Pass<'_> {
         summary: &mut Summary,
     ) -> (f64, f64) {
         let n = self.kin.len();
-        let (after, beyond) = self.kin.pose_near(
-            Model::Actual,
-            &state.emitted[..n],
-            state.modal.length,
-            &sol.angles,
-        );
+        // The solve's pose at the values as written, where the words are those values.
+        let (after, beyond) = match &sol.written {
+            Some(w) if w.q[..n] == state.emitted[..n] => (w.pose, w.beyond),
+            _ => self.kin.pose_near(
+                Model::Actual,
+                &state.emitted[..n],
+                state.modal.length,
+                &sol.angles,
+            ),
+        };
         let (ap, ad) = after.deviation(&sol.target);
         summary.motion_blocks += 1;
         if !state.modal.units_stated && summary.units_assumed.is_none() {

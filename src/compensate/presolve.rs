@@ -144,8 +144,12 @@ impl Predictor {
     }
 
     /// Read program `src` (its whole text) in `dialect`.
-    pub(super) fn program(&mut self, dialect: nc::Dialect, src: &[u8]) {
-        self.modal.for_program(dialect, src);
+    pub(super) fn program_with(
+        &mut self,
+        dialect: nc::Dialect,
+        labels: &std::sync::Arc<crate::program::heidenhain::Labels>,
+    ) {
+        self.modal.for_program_with(dialect, labels.clone());
     }
 
     /// Solve ahead for the lines of `chunk` (whose first line is number `before + 1`),

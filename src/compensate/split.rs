@@ -48,7 +48,7 @@ impl Pass<'_> {
             state.modal.length,
             hold,
             tolerance,
-            &self.options.solve,
+            &self.comp_solve,
             &mut pieces,
         );
         if pieces.len() >= 2 {

@@ -15,6 +15,8 @@ use super::{Compensator, State, Summary};
 use crate::diag::{Diagnostic, Error};
 use crate::nc::{self, Edit, Token, TokenKind};
 use crate::program::BlockMotion;
+use crate::program::heidenhain::{LabelScan, Labels};
+use std::sync::Arc;
 
 /// Bytes read at a time; a longer line makes the buffer grow to hold it.
 pub(super) const CHUNK: usize = 256 * 1024;
@@ -123,6 +125,14 @@ impl<'c, 'm> Run<'c, 'm> {
     /// Read program `src` (its whole text) in `dialect`.
     pub(super) fn program(&mut self, dialect: nc::Dialect, src: &[u8]) {
         self.state.modal.for_program(dialect, src);
+        if let Some(tnc) = self.state.modal.tnc.as_mut() {
+            tnc.follow_calls = true;
+        }
+    }
+
+    /// Read a streamed program in `dialect` whose labels were scanned first.
+    pub(super) fn program_with(&mut self, dialect: nc::Dialect, labels: &Arc<Labels>) {
+        self.state.modal.for_program_with(dialect, labels.clone());
         if let Some(tnc) = self.state.modal.tnc.as_mut() {
             tnc.follow_calls = true;
         }
@@ -650,7 +660,7 @@ impl Compensator<'_> {
         output: &mut impl Write,
         output_name: &str,
         pass: &mut Run<'_, '_>,
-        program: Option<(nc::Dialect, &[u8])>,
+        program: Option<(nc::Dialect, &Arc<Labels>)>,
     ) -> crate::Result<()> {
         use std::collections::VecDeque;
         use std::sync::mpsc::{RecvTimeoutError, sync_channel};
@@ -664,8 +674,8 @@ impl Compensator<'_> {
             let (to_pass, done) = sync_channel::<ToPass>(2);
             scope.spawn(move || {
                 let mut predictor = Predictor::new(self);
-                if let Some((dialect, src)) = program {
-                    predictor.program(dialect, src);
+                if let Some((dialect, labels)) = program {
+                    predictor.program_with(dialect, labels);
                 }
                 let mut idle_since = Instant::now();
                 for (index, bytes, before, mut ahead, share) in work {
@@ -1042,16 +1052,37 @@ impl Compensator<'_> {
         if let Some((first, _, _)) = chunks.next().map_err(read_error)?
             && self.dialect_of(input_name, first) != nc::Dialect::Iso
         {
-            // A TNC program calls labels written after its end: the pass reads it whole.
-            let mut src = first.to_vec();
-            while let Some((chunk, _, _)) = chunks.next().map_err(read_error)? {
-                src.extend_from_slice(chunk);
+            // A TNC program calls labels written after its end: a first pass keeps their
+            // bodies (and a copy of the text, in a temporary file, to read again), then
+            // the program streams as G-code does. A Sinumerik program streams at once.
+            let dialect = self.dialect_of(input_name, first);
+            chunks.unread();
+            if dialect != nc::Dialect::Heidenhain {
+                let labels = Arc::default();
+                let mut pass = Run::new(self, false);
+                pass.program_with(dialect, &labels);
+                let program = Some((dialect, &labels));
+                return self.stream(&mut chunks, input_name, output, output_name, pass, program);
             }
-            let dialect = self.dialect_of(input_name, &src);
+            let mut copy = tempfile::tempfile().map_err(read_error)?;
+            let mut scan = LabelScan::default();
+            while let Some((chunk, before, at)) = chunks.next().map_err(read_error)? {
+                for line in nc::lines(chunk) {
+                    scan.line(&nc::Line {
+                        number: line.number + before,
+                        offset: line.offset + at,
+                        ..line
+                    });
+                }
+                copy.write_all(chunk).map_err(read_error)?;
+            }
+            let labels = Arc::new(scan.finish());
             let mut pass = Run::new(self, false);
-            pass.program(dialect, &src);
-            let mut chunks = Chunks::new(&src[..]);
-            let program = Some((dialect, &src[..]));
+            pass.program_with(dialect, &labels);
+            use std::io::{Seek, SeekFrom};
+            copy.seek(SeekFrom::Start(0)).map_err(read_error)?;
+            let mut chunks = Chunks::new(copy);
+            let program = Some((dialect, &labels));
             return self.stream(&mut chunks, input_name, output, output_name, pass, program);
         }
         chunks.unread();
@@ -1067,7 +1098,7 @@ impl Compensator<'_> {
         mut output: impl Write,
         output_name: &str,
         mut pass: Run<'_, '_>,
-        program: Option<(nc::Dialect, &[u8])>,
+        program: Option<(nc::Dialect, &Arc<Labels>)>,
     ) -> crate::Result<Summary> {
         let read_error = |source| read_failure(input_name, source);
         let write_error = |source| Error::Io {

@@ -1109,7 +1109,7 @@ impl TcpMode {
         } else {
             aim
         };
-        if end.solution.is_none_or(|sol| sol.position_residual > 1e-6) {
+        if end.solution.is_none_or(|sol| pass.missed(&sol)) {
             return Ok(None);
         }
         let (a, b) = (arc.a, arc.b);

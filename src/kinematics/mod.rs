@@ -15,7 +15,7 @@ mod turning;
 
 pub use bound::Sag;
 pub use chain::Angles;
-pub use solve::{Solution, SolveOptions};
+pub use solve::{Solution, SolveOptions, Written};
 
 use crate::model::{AxisKind, ErrorModel, Machine};
 use chain::{Joint, Twist};

@@ -26,6 +26,11 @@ pub struct SolveOptions {
     /// [`Kinematics::compensate`] only: the decimals rotary values are written with, and
     /// how far (mm) their rounding may move the tip before the linear axes take it up.
     pub rotary_rounding: Option<(u8, f64)>,
+    /// [`Kinematics::compensate`] only: the decimals linear (mm) and rotary (°) values are
+    /// written with, where the words are the axis values. The solve then evaluates its
+    /// last pose at the values as written ([`Solution::written`]): the pass needs that
+    /// pose anyway, and it checks the step too.
+    pub written: Option<(u8, u8)>,
 }
 
 impl Default for SolveOptions {
@@ -36,6 +41,7 @@ impl Default for SolveOptions {
             position_tolerance: 1e-10,
             angle_tolerance: 1e-12,
             rotary_rounding: None,
+            written: None,
         }
     }
 }
@@ -54,6 +60,20 @@ impl SolveOptions {
             ..SolveOptions::default()
         }
     }
+}
+
+/// How far the real machine's Jacobian at the solution may differ from the nominal one at
+/// the programmed values, relative: the errors' angles and slopes and the correction, each
+/// a few hundred micro-radians or less. A chord step with the nominal Jacobian leaves
+/// that share of the residual: 2.4·10⁻⁴ and 1.9·10⁻³ on the spiral (docs/performance.md),
+/// so twice the larger.
+const MISMATCH: f64 = 4e-3;
+
+/// `x` as a word with `decimals` reads back (the writer's rounding, `nc::number`).
+fn as_written(x: f64, decimals: u8) -> Option<f64> {
+    let n = crate::nc::number::scaled(x, decimals)?;
+    let v = n.unsigned_abs() as f64 / 10f64.powi(decimals.into());
+    (n.unsigned_abs() <= 1 << 53).then_some(if n < 0 { -v } else { v })
 }
 
 /// A step that leaves more than this share of the residual (position or direction) makes
@@ -96,6 +116,17 @@ pub struct Solution {
     /// The rotary axes' sines and cosines at the start values, to evaluate poses near the
     /// solution with ([`Kinematics::pose_near`]).
     pub angles: Angles,
+    /// The solution's values rounded as [`SolveOptions::written`] asks, and the real pose
+    /// there (`pose_near` with `angles`, bit for bit), where the solve evaluated it.
+    pub written: Option<Written>,
+}
+
+/// The real machine's pose at the solution as written.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Written {
+    pub q: [f64; MAX_AXES],
+    pub pose: Pose,
+    pub beyond: bool,
 }
 
 impl Solution {
@@ -143,6 +174,12 @@ impl Kinematics {
         // compensation tolerance (1e-7 mm) and three the default's (1e-10 mm). Where the
         // errors are too large for that, the first slow step takes the real machine's.
         let (pose, beyond) = self.pose_at(Model::Actual, q, length, &angles);
+        let fixed = hold | singular;
+        if let Some(sol) =
+            self.written_steps(q, length, fixed, options, &target, &nominal, &pose, &angles)
+        {
+            return Solution { singular, ..sol };
+        }
         let start = Start {
             pose,
             beyond,
@@ -161,9 +198,116 @@ impl Kinematics {
         );
         sol.singular = singular;
         if let Some((decimals, tolerance)) = options.rotary_rounding {
-            self.absorb_rounding(&mut sol, &nominal, hold | singular, decimals, tolerance);
+            self.absorb_rounding(&mut sol.q, &nominal, fixed, decimals, tolerance);
         }
         sol
+    }
+
+    /// Chord steps checked at the values as written ([`SolveOptions::written`]):
+    /// design/model.md asks the solve to land within a tenth of the resolution, and from
+    /// a start tens of microns off one step with the nominal Jacobian leaves a few
+    /// nanometres to tens of nanometres (the errors change the Jacobian by a thousandth
+    /// or less). The pose at the written values w is the one the pass records; the
+    /// residual at the step's values q is read from it to first order,
+    /// r(q) ≈ r(w) − J·(w − q), with the Jacobian's own error on that small difference as
+    /// a margin. Where that falls short, the next step starts from w, whose residual the
+    /// pose gives exactly; it moves the values by a fraction of the last digit, so their
+    /// written values are mostly w again and need no new pose. `None` where three steps
+    /// fall short or the check does not apply (held axes, whose direction residual only
+    /// the full solve settles): the full solve then runs.
+    #[allow(clippy::too_many_arguments)]
+    fn written_steps(
+        &self,
+        q: &[f64],
+        length: f64,
+        fixed: u32,
+        options: &SolveOptions,
+        target: &Pose,
+        nominal: &Jacobian,
+        pose: &Pose,
+        angles: &Angles,
+    ) -> Option<Solution> {
+        let (linear_decimals, rotary_decimals) = options.written?;
+        let n = self.len();
+        if fixed != 0 || n != 5 || self.turning.is_some() {
+            return None;
+        }
+        let (b1, b2) = tangent_basis(&target.o);
+        let map = step_map(nominal, &[0, 1, 2, 3, 4], &b1, &b2, true);
+        // Where the step starts, and the real pose there.
+        let mut from = [0.0; MAX_AXES];
+        from[..n].copy_from_slice(&q[..n]);
+        let mut at = *pose;
+        let mut last: Option<([f64; MAX_AXES], Pose, bool)> = None;
+        for steps in 1..=3 {
+            let rp = at.p - target.p;
+            let step = map.step(&[rp.x, rp.y, rp.z, b1.dot(&at.o), b2.dot(&at.o)]);
+            let mut solved = from;
+            for k in 0..n {
+                solved[k] -= step[k];
+            }
+            // The values to write: the rotary rounding taken up where it must be. The
+            // residual checked is the solve's, before that (design/model.md).
+            let mut q1 = solved;
+            if let Some((decimals, tolerance)) = options.rotary_rounding {
+                self.absorb_rounding(&mut q1, nominal, fixed, decimals, tolerance);
+            }
+            let mut w = q1;
+            for (k, x) in w.iter_mut().enumerate().take(n) {
+                let decimals = if self.rotary & (1 << k) != 0 {
+                    rotary_decimals
+                } else {
+                    linear_decimals
+                };
+                *x = as_written(*x, decimals)?;
+            }
+            let (at_w, beyond) = match last {
+                Some((was, pose, beyond)) if was[..n] == w[..n] => (pose, beyond),
+                _ => self.pose_at(Model::Actual, &w[..n], length, &angles.near(&w[..n])),
+            };
+            // The terms one by one for the margin: the take-up's cancel in the sum, their
+            // errors need not.
+            let (mut dp, mut do_) = (Vector3::zeros(), Vector3::zeros());
+            let (mut dp_size, mut do_size) = (0.0, 0.0);
+            for k in 0..n {
+                let d = w[k] - solved[k];
+                dp += nominal.dp[k] * d;
+                do_ += nominal.do_[k] * d;
+                dp_size += (nominal.dp[k] * d).norm();
+                do_size += (nominal.do_[k] * d).norm();
+            }
+            let rp1 = at_w.p - target.p - dp;
+            let o1 = at_w.o - do_;
+            let (ep, ea) = (rp1.norm(), o1.cross(&target.o).norm() / o1.norm());
+            if ep + MISMATCH * dp_size <= options.position_tolerance
+                && ea + MISMATCH * do_size <= options.angle_tolerance
+            {
+                let (start_position_error, start_direction_error) = pose.deviation(target);
+                return Some(Solution {
+                    q: q1,
+                    n,
+                    position_residual: ep,
+                    direction_residual: ea,
+                    start_position_error,
+                    start_direction_error,
+                    target: *target,
+                    iterations: steps,
+                    held: fixed,
+                    singular: 0,
+                    beyond,
+                    angles: *angles,
+                    written: Some(Written {
+                        q: w,
+                        pose: at_w,
+                        beyond,
+                    }),
+                });
+            }
+            from = w;
+            at = at_w;
+            last = Some((w, at_w, beyond));
+        }
+        None
     }
 
     /// A rotary value is written with `decimals`, which moves the tip by the rounding times
@@ -175,7 +319,7 @@ impl Kinematics {
     /// to picometres, without a pose.
     fn absorb_rounding(
         &self,
-        sol: &mut Solution,
+        q: &mut [f64; MAX_AXES],
         nominal: &Jacobian,
         fixed: u32,
         decimals: u8,
@@ -183,12 +327,12 @@ impl Kinematics {
     ) {
         let n = self.len();
         let scale = 10f64.powi(decimals.into());
-        let mut rounded = sol.q;
+        let mut rounded = *q;
         let mut linear = [0usize; 3];
         let mut m = 0;
         for v in (0..n).filter(|&v| fixed & (1 << v) == 0) {
             if self.rotary & (1 << v) != 0 {
-                rounded[v] = (sol.q[v] * scale).round() / scale;
+                rounded[v] = (q[v] * scale).round() / scale;
             } else if m < 3 {
                 linear[m] = v;
                 m += 1;
@@ -202,7 +346,7 @@ impl Kinematics {
         let shift = (0..n)
             .filter(|&v| self.rotary & (1 << v) != 0)
             .fold(Vector3::zeros(), |p, v| {
-                p + nominal.dp[v] * (rounded[v] - sol.q[v])
+                p + nominal.dp[v] * (rounded[v] - q[v])
             });
         if shift.norm() <= tolerance {
             return;
@@ -216,7 +360,7 @@ impl Kinematics {
             for (k, &v) in linear.iter().enumerate() {
                 rounded[v] += step[k];
             }
-            sol.q = rounded;
+            *q = rounded;
         }
     }
 
@@ -257,6 +401,39 @@ impl Kinematics {
             own: true,
         };
         self.solve_from(model, target, start, length, held, options, from, &angles)
+    }
+
+    /// The nominal machine's linear axes that put the tip at `tip`, the rotary axes held
+    /// at `start`'s values (the controller's solve under TCP and in a working plane). The
+    /// direction follows from the rotary values alone: the pose at `start` that comes
+    /// with the Jacobian gives it (a second pose there, and the rotary axes' sines and
+    /// cosines again, were a third of a plane block's solve).
+    pub(super) fn solve_to_tip(
+        &self,
+        tip: &Vector3<f64>,
+        start: &[f64],
+        length: f64,
+        options: &SolveOptions,
+    ) -> Solution {
+        let angles = self.angles(start);
+        let (pose, jac) = self.jacobian_at(Model::Nominal, &start[..self.len()], length, &angles);
+        let target = Pose { p: *tip, o: pose.o };
+        let from = Start {
+            pose,
+            beyond: jac.beyond,
+            jac: &jac,
+            own: true,
+        };
+        self.solve_from(
+            Model::Nominal,
+            &target,
+            start,
+            length,
+            self.rotary,
+            options,
+            from,
+            &angles,
+        )
     }
 
     /// [`Kinematics::solve`] with the pose at `start` already evaluated and a Jacobian to
@@ -352,6 +529,7 @@ impl Kinematics {
             singular: 0,
             beyond,
             angles: *angles,
+            written: None,
         }
     }
 }

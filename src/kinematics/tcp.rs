@@ -29,20 +29,7 @@ impl Kinematics {
         length: f64,
         options: &SolveOptions,
     ) -> Solution {
-        // The direction follows from the rotary positions alone.
-        let (at_guess, _) = self.pose(Model::Nominal, rotary_and_guess, length);
-        let target = Pose {
-            p: *tip,
-            o: at_guess.o,
-        };
-        self.solve(
-            Model::Nominal,
-            &target,
-            rotary_and_guess,
-            length,
-            self.rotary,
-            options,
-        )
+        self.solve_to_tip(tip, rotary_and_guess, length, options)
     }
 
     /// The correction of a TCP block whose nominal axis values are `q` (as the controller

@@ -220,67 +220,97 @@ impl Body {
 impl Labels {
     /// The labels of program `src`.
     pub fn scan(src: &[u8]) -> Labels {
-        let mut tokens = Vec::new();
-        let mut starts: Vec<(String, usize, usize)> = Vec::new();
-        let all: Vec<nc::Line<'_>> = nc::lines(src).collect();
-        let mut ends = Vec::new();
-        let mut end = None;
-        for (k, line) in all.iter().enumerate() {
-            if end.is_none()
-                && (memchr::memmem::find(line.content, b"M30").is_some()
-                    || memchr::memmem::find(line.content, b"M2").is_some()
-                    || memchr::memmem::find(line.content, b"END").is_some())
+        let mut scan = LabelScan::default();
+        for line in nc::lines(src) {
+            scan.line(&line);
+        }
+        scan.finish()
+    }
+}
+
+/// [`Labels::scan`] line by line, for a program read in chunks: a first pass that keeps
+/// only the labels' bodies and where the program ends, so that the pass after it can
+/// stream the program.
+#[derive(Debug, Default)]
+pub struct LabelScan {
+    labels: Labels,
+    /// The labels since the last `LBL 0`: each line goes into their bodies.
+    open: Vec<String>,
+    tokens: Vec<Token>,
+}
+
+impl LabelScan {
+    /// The program's next line, numbered and placed as in the whole file.
+    pub fn line(&mut self, line: &nc::Line<'_>) {
+        if self.labels.end.is_none()
+            && (memchr::memmem::find(line.content, b"M30").is_some()
+                || memchr::memmem::find(line.content, b"M2").is_some()
+                || memchr::memmem::find(line.content, b"END").is_some())
+        {
+            nc::heidenhain::parse_line(line.content, &mut self.tokens);
+            let tokens = &self.tokens;
+            let sig = significant(line.content, tokens);
+            let words: Vec<&str> = sig
+                .iter()
+                .map(|&i| text(line.content, &tokens[i]))
+                .collect();
+            let optional = tokens.iter().any(|t| t.kind == TokenKind::BlockDelete);
+            if (words.first() == Some(&"END") && words.get(1) == Some(&"PGM"))
+                || (!optional && ends_program(&words))
             {
-                nc::heidenhain::parse_line(line.content, &mut tokens);
-                let sig = significant(line.content, &tokens);
-                let words: Vec<&str> = sig
-                    .iter()
-                    .map(|&i| text(line.content, &tokens[i]))
-                    .collect();
-                let optional = tokens.iter().any(|t| t.kind == TokenKind::BlockDelete);
-                if (words.first() == Some(&"END") && words.get(1) == Some(&"PGM"))
-                    || (!optional && ends_program(&words))
-                {
-                    end = Some(line.number);
+                self.labels.end = Some(line.number);
+            }
+        }
+        let label = self.label(line.content);
+        if label.as_deref() == Some("0") {
+            for name in self.open.drain(..) {
+                if let Some(body) = self.labels.bodies.get_mut(&name) {
+                    body.closed = true;
                 }
             }
-            // Only a line that says LBL can be one: the rest are not cut into tokens.
-            if memchr::memmem::find(line.content, b"LBL").is_none() {
-                continue;
-            }
-            nc::heidenhain::parse_line(line.content, &mut tokens);
-            let sig = significant(line.content, &tokens);
-            if sig.first().map(|&i| text(line.content, &tokens[i])) != Some("LBL") {
-                continue;
-            }
-            let Some(name) = label_name(line.content, &tokens, &sig[1..]) else {
-                continue;
-            };
-            if name == "0" {
-                ends.push(k);
-            } else {
-                starts.push((name, k, line.number));
+            return;
+        }
+        for name in &self.open {
+            if let Some(body) = self.labels.bodies.get_mut(name) {
+                body.lines.push(BodyLine {
+                    number: line.number,
+                    offset: line.offset,
+                    content: line.content.to_vec(),
+                    ending: line.ending.to_vec(),
+                });
             }
         }
-        let mut bodies = HashMap::new();
-        for (name, k, number) in starts {
-            let stop = ends.iter().copied().find(|&e| e > k);
-            let lines = all[k + 1..stop.unwrap_or(all.len())]
-                .iter()
-                .map(|l| BodyLine {
-                    number: l.number,
-                    offset: l.offset,
-                    content: l.content.to_vec(),
-                    ending: l.ending.to_vec(),
-                })
-                .collect();
-            bodies.entry(name).or_insert(Body {
-                line: number,
-                lines,
-                closed: stop.is_some(),
-            });
+        // A label defined twice keeps its first body.
+        if let Some(name) = label
+            && !self.labels.bodies.contains_key(&name)
+        {
+            self.labels.bodies.insert(
+                name.clone(),
+                Body {
+                    line: line.number,
+                    lines: Vec::new(),
+                    closed: false,
+                },
+            );
+            self.open.push(name);
         }
-        Labels { bodies, end }
+    }
+
+    /// The name a `LBL` line gives.
+    fn label(&mut self, content: &[u8]) -> Option<String> {
+        // Only a line that says LBL can be one: the rest are not cut into tokens.
+        memchr::memmem::find(content, b"LBL")?;
+        nc::heidenhain::parse_line(content, &mut self.tokens);
+        let tokens = &self.tokens;
+        let sig = significant(content, tokens);
+        if sig.first().map(|&i| text(content, &tokens[i])) != Some("LBL") {
+            return None;
+        }
+        label_name(content, tokens, &sig[1..])
+    }
+
+    pub fn finish(self) -> Labels {
+        self.labels
     }
 }
 

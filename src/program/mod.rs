@@ -396,10 +396,22 @@ pub fn tokenize(modal: &Modal, content: &[u8], tokens: &mut Vec<crate::nc::Token
 impl Modal {
     /// The state at the start of program `src` written in `dialect`.
     pub fn for_program(&mut self, dialect: crate::nc::Dialect, src: &[u8]) {
+        let labels = (dialect == crate::nc::Dialect::Heidenhain)
+            .then(|| std::sync::Arc::new(heidenhain::Labels::scan(src)));
+        self.for_program_with(dialect, labels.unwrap_or_default());
+    }
+
+    /// [`Modal::for_program`] with a TNC program's labels already scanned
+    /// ([`heidenhain::LabelScan`]), for a program that is streamed.
+    pub fn for_program_with(
+        &mut self,
+        dialect: crate::nc::Dialect,
+        labels: std::sync::Arc<heidenhain::Labels>,
+    ) {
         self.dialect = dialect;
         self.tnc = (dialect == crate::nc::Dialect::Heidenhain).then(|| {
             Box::new(heidenhain::Tnc {
-                labels: std::sync::Arc::new(heidenhain::Labels::scan(src)),
+                labels,
                 ..heidenhain::Tnc::default()
             })
         });

@@ -206,7 +206,7 @@ pub type Open<'a> = dyn Fn() -> std::io::Result<Box<dyn std::io::Read>> + 'a;
 
 /// A program the gate reads: its text in memory, or read again from its start for each
 /// reading (streamed in chunks: the gate then holds a chunk of it, not the program; a TNC
-/// program, whose labels are looked up by name, is read whole).
+/// program, whose labels are looked up by name, is read once more first for its labels).
 #[derive(Clone, Copy)]
 pub enum Source<'a> {
     Memory(Text<'a>),

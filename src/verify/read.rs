@@ -9,9 +9,10 @@ use crate::diag::Diagnostic;
 use crate::kinematics::MAX_AXES;
 use crate::model::Machine;
 use crate::nc::{self, Dialect, Token, TokenKind};
+use crate::program::heidenhain::{LabelScan, Labels};
 use crate::program::moves::{NominalMove, Shape, follow};
 use crate::program::{BlockMotion, Modal, MoveKind, Reader, WorkingPlane};
-use std::io::Read;
+use std::sync::Arc;
 
 /// Why a stretch of a program is not followed by the gate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -132,12 +133,12 @@ impl<'m> Follower<'m> {
         machine: &'m Machine,
         chain: usize,
         dialect: Dialect,
-        src: &[u8],
+        labels: Arc<Labels>,
         skip_optional: bool,
         turn: Option<Turn<'m>>,
     ) -> Self {
         let mut modal = Modal::start(machine, chain);
-        modal.for_program(dialect, src);
+        modal.for_program_with(dialect, labels);
         // The gate runs the bodies of label calls that move itself, as the control does.
         if let Some(tnc) = modal.tnc.as_mut() {
             tnc.follow_calls = true;
@@ -710,8 +711,8 @@ impl Items<'_, '_> {
 }
 
 /// The items of program `source` read in `dialect` from tool chain `chain`, with block
-/// delete `skip_optional`. A TNC program is read whole (its labels are looked up by
-/// name); the others stream.
+/// delete `skip_optional`. They stream; a TNC program's labels (looked up by name) come
+/// from a first reading that keeps only their bodies.
 pub fn items<'m, 'a>(
     machine: &'m Machine,
     chain: usize,
@@ -721,30 +722,51 @@ pub fn items<'m, 'a>(
     turn: Option<Turn<'m>>,
 ) -> crate::Result<Items<'m, 'a>> {
     let path = source.name();
+    let tnc = dialect == Dialect::Heidenhain;
+    let mut labels = Labels::default();
     let text = match source {
-        super::Source::Memory(t) => Text::Whole(std::borrow::Cow::Borrowed(t.src)),
-        super::Source::Stream { open, .. } if dialect == Dialect::Heidenhain => {
-            let mut src = Vec::new();
-            open()
-                .and_then(|mut r| r.read_to_end(&mut src))
-                .map_err(|e| super::read_error(path, e))?;
-            Text::Whole(std::borrow::Cow::Owned(src))
+        super::Source::Memory(t) => {
+            if tnc {
+                labels = Labels::scan(t.src);
+            }
+            Text::Whole(std::borrow::Cow::Borrowed(t.src))
         }
-        super::Source::Stream { open, .. } => Text::Stream {
-            chunks: crate::compensate::stream::Chunks::new(
-                open().map_err(|e| super::read_error(path, e))?,
-            ),
-            buf: Vec::new(),
-            before: 0,
-        },
-    };
-    let whole: &[u8] = match &text {
-        Text::Whole(src) => src,
-        // Only a TNC program's reading looks at the whole text (its labels).
-        Text::Stream { .. } => &[],
+        super::Source::Stream { open, .. } => {
+            let open = || open().map_err(|e| super::read_error(path, e));
+            if tnc {
+                // A first reading for the labels (a TNC program calls them before they
+                // are written), then the program streams.
+                let mut chunks = crate::compensate::stream::Chunks::new(open()?);
+                let mut scan = LabelScan::default();
+                while let Some((chunk, before, at)) =
+                    chunks.next().map_err(|e| super::read_error(path, e))?
+                {
+                    for line in crate::nc::lines(chunk) {
+                        scan.line(&crate::nc::Line {
+                            number: line.number + before,
+                            offset: line.offset + at,
+                            ..line
+                        });
+                    }
+                }
+                labels = scan.finish();
+            }
+            Text::Stream {
+                chunks: crate::compensate::stream::Chunks::new(open()?),
+                buf: Vec::new(),
+                before: 0,
+            }
+        }
     };
     Ok(Items {
-        follower: Follower::new(machine, chain, dialect, whole, skip_optional, turn),
+        follower: Follower::new(
+            machine,
+            chain,
+            dialect,
+            Arc::new(labels),
+            skip_optional,
+            turn,
+        ),
         text,
         pos: 0,
         read: 0,
