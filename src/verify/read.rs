@@ -588,17 +588,30 @@ impl Iterator for Items<'_, '_> {
             // A label body the control runs (a call of a body that moves).
             match self.body_line() {
                 Ok(Some(body)) => {
-                    let Text::Whole(src) = &self.text else {
-                        self.done = true;
-                        return None;
+                    // A streamed program's body line is read from the label scan's copy
+                    // of it: located in a buffer of that line alone, its messages are
+                    // moved to its line in the file.
+                    let mut line = body.line();
+                    let (own, shift) = match &self.text {
+                        Text::Whole(_) => (None, 0),
+                        Text::Stream { .. } => {
+                            let mut own = body.content.clone();
+                            own.extend_from_slice(&body.ending);
+                            line.offset = 0;
+                            (Some(own), body.number - 1)
+                        }
                     };
-                    let buf: &[u8] = src;
-                    let line = body.line();
+                    let buf: &[u8] = match (&own, &self.text) {
+                        (Some(own), _) => own,
+                        (None, Text::Whole(src)) => src,
+                        (None, Text::Stream { .. }) => &[],
+                    };
                     self.last = line.number;
                     match self.follower.line(&line, self.path, buf) {
                         Ok(Some(item)) => return Some(Ok(item)),
                         Ok(None) => {}
-                        Err(d) => {
+                        Err(mut d) => {
+                            d.line += shift;
                             self.done = true;
                             return Some(Err(d));
                         }
@@ -611,12 +624,13 @@ impl Iterator for Items<'_, '_> {
                         .is_some_and(|t| t.end.is_some())
                     {
                         self.done = true;
-                        let at = Diagnostic::at(
+                        let mut at = Diagnostic::at(
                             self.path,
                             buf,
                             line.offset,
                             "a called label ends the program here: not followed",
                         );
+                        at.line += shift;
                         return Some(Err(at));
                     }
                     continue;
