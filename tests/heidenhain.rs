@@ -2037,21 +2037,27 @@ fn arcs_in_tilted_planes_on_the_ac_trunnion_meet_the_contract() {
                 && lines[i + 1].contains(" C X")
         })
         .expect("a pole written before a kept C");
-    let broken: Vec<String> = lines
-        .iter()
-        .enumerate()
-        .map(|(i, l)| {
-            if i != at {
-                return l.to_string();
-            }
-            let (head, rest) = l.split_once(" X").unwrap();
-            let (x, tail) = rest.split_once(' ').unwrap();
-            let x: f64 = x.parse().unwrap();
-            format!("{head} X{:.4} {tail}", x + 0.01)
-        })
-        .collect();
-    let f = evaluate(&setup, &fixture(p), &(broken.join("\n") + "\n"));
+    let broken = moved_word(&lines, at, 'X', 0.01);
+    let f = evaluate(&setup, &fixture(p), &broken);
     assert!(!f.faults.is_empty(), "a pole 10 µm off passes");
+}
+
+/// `lines` as a program, the number of the `letter` word on line `at` (0-based) moved by
+/// `delta`.
+fn moved_word(lines: &[&str], at: usize, letter: char, delta: f64) -> String {
+    let mut out = String::new();
+    for (i, l) in lines.iter().enumerate() {
+        if i == at {
+            let (head, rest) = l.split_once(&format!(" {letter}")).unwrap();
+            let (value, tail) = rest.split_once(' ').unwrap_or((rest, ""));
+            let value: f64 = value.parse().unwrap();
+            out += &format!("{head} {letter}{:.4} {tail}", value + delta);
+        } else {
+            out += l;
+        }
+        out.push('\n');
+    }
+    out
 }
 
 /// C, CR and CP arcs under M128 with the rotary axes standing (a helix by CP … IZ and by a
@@ -2072,20 +2078,8 @@ fn arcs_under_m128_on_the_bc_head_table_meet_the_contract() {
         .position(|l| l.ends_with(" CC X0 Y-30"))
         .expect("the pole")
         + 40;
-    let broken: Vec<String> = lines
-        .iter()
-        .enumerate()
-        .map(|(i, l)| {
-            if i != at {
-                return l.to_string();
-            }
-            let (head, rest) = l.split_once(" Y").unwrap();
-            let (y, tail) = rest.split_once(' ').unwrap_or((rest, ""));
-            let y: f64 = y.parse().unwrap();
-            format!("{head} Y{:.4} {tail}", y + 0.01)
-        })
-        .collect();
-    let f = evaluate(&setup, &fixture(p), &(broken.join("\n") + "\n"));
+    let broken = moved_word(&lines, at, 'Y', 0.01);
+    let f = evaluate(&setup, &fixture(p), &broken);
     assert!(
         !f.faults.is_empty(),
         "a piece 10 µm off passes: {}",
@@ -2555,8 +2549,8 @@ fn a_feed_move_right_after_a_turn_to_the_plane_is_refused() {
 
 /// What nccomp cannot follow of an arc in a plane or under TCP is refused at its place,
 /// saying what was expected: a pole given before the plane changed, an IPA turning the
-/// other way than DR, a pole given before M128 for an arc under it, a word a C does not
-/// take.
+/// other way than DR, a pole given before M128 for an arc under it, an optional arc under
+/// M128 (its pieces would run or not as one block), a word a C does not take.
 #[test]
 fn arcs_that_cannot_be_followed_are_refused_where_they_stand() {
     let setup = Setup::load("ac_trunnion", "ac_trunnion");
@@ -2583,6 +2577,11 @@ fn arcs_that_cannot_be_followed_are_refused_where_they_stand() {
             "2 CC X+0 Y+0\n3 M128\n4 L X+10 Y+0 Z+2 R0 FMAX\n5 C X+0 Y+10 DR+\n".to_string(),
             "p.h:6:3",
             "or tool-centre-point control was switched",
+        ),
+        (
+            "2 M128\n3 L X+10 Y+0 Z+2 R0 FMAX\n4 CC X+0 Y+0\n/5 C X+0 Y+10 DR+\n".to_string(),
+            "p.h:6:6",
+            "an optional block (/) under M128 / FUNCTION TCPM cannot be compensated",
         ),
     ] {
         let program = format!("{head}{body}99 END PGM P MM\n");

@@ -208,7 +208,11 @@ fn code(state: &State) -> &'static str {
     } else if state.modal.tcp_vector {
         "G43.5"
     } else {
-        "G43.4"
+        match state.modal.dialect {
+            crate::nc::Dialect::Heidenhain => "M128 / FUNCTION TCPM",
+            crate::nc::Dialect::Sinumerik => "TRAORI",
+            crate::nc::Dialect::Iso => "G43.4",
+        }
     }
 }
 
